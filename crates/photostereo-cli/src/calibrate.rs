@@ -1,0 +1,12 @@
+//! `photostereo calibrate` (to be written).
+
+use crate::Global;
+
+/// Arguments of `photostereo calibrate`.
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+/// Run the subcommand.
+pub fn run(_args: Args, _global: Global) -> anyhow::Result<()> {
+    anyhow::bail!("`photostereo calibrate` is not available yet")
+}

@@ -1,0 +1,12 @@
+//! `photostereo eval` (to be written).
+
+use crate::Global;
+
+/// Arguments of `photostereo eval`.
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+/// Run the subcommand.
+pub fn run(_args: Args, _global: Global) -> anyhow::Result<()> {
+    anyhow::bail!("`photostereo eval` is not available yet")
+}

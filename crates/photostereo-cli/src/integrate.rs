@@ -1,0 +1,12 @@
+//! `photostereo integrate` (to be written).
+
+use crate::Global;
+
+/// Arguments of `photostereo integrate`.
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+/// Run the subcommand.
+pub fn run(_args: Args, _global: Global) -> anyhow::Result<()> {
+    anyhow::bail!("`photostereo integrate` is not available yet")
+}

@@ -1,0 +1,12 @@
+//! `photostereo lights` (to be written).
+
+use crate::Global;
+
+/// Arguments of `photostereo lights`.
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+/// Run the subcommand.
+pub fn run(_args: Args, _global: Global) -> anyhow::Result<()> {
+    anyhow::bail!("`photostereo lights` is not available yet")
+}

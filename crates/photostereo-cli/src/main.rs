@@ -1,0 +1,81 @@
+//! `photostereo`: photometric stereo from the command line.
+//!
+//! One file per subcommand; each exposes `Args` (clap) and `run`.
+
+use clap::{Parser, Subcommand};
+
+mod bench;
+mod calibrate;
+mod demo;
+mod eval;
+mod integrate;
+mod interreflect;
+mod lights;
+mod normals;
+mod progress;
+mod run;
+mod synth;
+
+/// Recover 3-D shape of shiny objects from images under several lights.
+#[derive(Parser, Debug)]
+#[command(name = "photostereo", version, about, long_about = None)]
+struct Cli {
+    /// Print nothing but errors (no progress bars, no tables).
+    #[arg(short, long, global = true)]
+    quiet: bool,
+
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render a synthetic dataset with ground truth (DiLiGenT layout).
+    Synth(synth::Args),
+    /// Compare a normal map (and optionally depth) with ground truth.
+    Eval(eval::Args),
+    /// Detect the calibration sphere and build a lookup table.
+    Calibrate(calibrate::Args),
+    /// Estimate light directions from a matte or chrome sphere.
+    Lights(lights::Args),
+    /// Estimate normals of a target (lookup table or Lambertian).
+    Normals(normals::Args),
+    /// Integrate a normal map into a depth map (and mesh).
+    Integrate(integrate::Args),
+    /// Remove interreflections (Nayar–Ikeuchi–Kanade iteration).
+    Interreflect(interreflect::Args),
+    /// Whole pipeline on a dataset: normals → depth → mesh → report.
+    Run(run::Args),
+    /// Run the pipeline on built-in synthetic data and print accuracy.
+    Demo(demo::Args),
+    /// Print speed figures of the main kernels.
+    Bench(bench::Args),
+}
+
+/// Options shared by every subcommand.
+#[derive(Clone, Copy, Debug)]
+pub struct Global {
+    /// No progress, no tables.
+    pub quiet: bool,
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let global = Global { quiet: cli.quiet };
+    let result = match cli.command {
+        Command::Synth(a) => synth::run(a, global),
+        Command::Eval(a) => eval::run(a, global),
+        Command::Calibrate(a) => calibrate::run(a, global),
+        Command::Lights(a) => lights::run(a, global),
+        Command::Normals(a) => normals::run(a, global),
+        Command::Integrate(a) => integrate::run(a, global),
+        Command::Interreflect(a) => interreflect::run(a, global),
+        Command::Run(a) => run::run(a, global),
+        Command::Demo(a) => demo::run(a, global),
+        Command::Bench(a) => bench::run(a, global),
+    };
+    if let Err(err) = result {
+        eprintln!("error: {err:#}");
+        std::process::exit(1);
+    }
+}

@@ -1,0 +1,12 @@
+//! `photostereo normals` (to be written).
+
+use crate::Global;
+
+/// Arguments of `photostereo normals`.
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+/// Run the subcommand.
+pub fn run(_args: Args, _global: Global) -> anyhow::Result<()> {
+    anyhow::bail!("`photostereo normals` is not available yet")
+}

@@ -1,0 +1,12 @@
+//! `photostereo run` (to be written).
+
+use crate::Global;
+
+/// Arguments of `photostereo run`.
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+/// Run the subcommand.
+pub fn run(_args: Args, _global: Global) -> anyhow::Result<()> {
+    anyhow::bail!("`photostereo run` is not available yet")
+}

@@ -1,0 +1,95 @@
+//! The one error type of the library.
+//!
+//! Every variant carries the facts a user needs to fix the problem: the file,
+//! what was expected and what was found, and (in `fix`) what to do about it.
+
+use std::path::PathBuf;
+
+/// Result alias used throughout the crate.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Everything that can go wrong in photostereo.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file or directory could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// A required file or directory does not exist.
+    #[error("{path}: not found; {fix}")]
+    NotFound { path: PathBuf, fix: String },
+
+    /// A file exists but could not be decoded (not an image, corrupt npy, ...).
+    #[error("{path}: cannot decode: {message}")]
+    Decode { path: PathBuf, message: String },
+
+    /// A text file (light directions, intensities, file list) has a bad line.
+    #[error("{path}, line {line}: {message}")]
+    Parse {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
+
+    /// Two things that must have the same pixel size do not.
+    #[error("{what}: size {found_w}x{found_h} differs from the expected {expected_w}x{expected_h}; {fix}")]
+    SizeMismatch {
+        what: String,
+        expected_w: usize,
+        expected_h: usize,
+        found_w: usize,
+        found_h: usize,
+        fix: String,
+    },
+
+    /// The number of lights (images, directions, intensities, table entries) disagrees.
+    #[error("{what}: expected {expected} lights, found {found}; {fix}")]
+    LightCount {
+        what: String,
+        expected: usize,
+        found: usize,
+        fix: String,
+    },
+
+    /// The mask selects no pixel at all.
+    #[error("{what}: the mask selects no pixel; {fix}")]
+    EmptyMask { what: String, fix: String },
+
+    /// No calibration sphere could be found in the images.
+    #[error("no sphere found in {what}: {reason}; {fix}")]
+    SphereNotFound {
+        what: String,
+        reason: String,
+        fix: String,
+    },
+
+    /// A lookup table does not fit the target it is applied to.
+    #[error("lookup table {what} does not match the target: {reason}")]
+    TableMismatch { what: String, reason: String },
+
+    /// Any other invalid argument or data, with the fix.
+    #[error("{what}: {fix}")]
+    InvalidInput { what: String, fix: String },
+}
+
+impl Error {
+    /// Shorthand for [`Error::InvalidInput`].
+    pub fn invalid(what: impl Into<String>, fix: impl Into<String>) -> Self {
+        Error::InvalidInput {
+            what: what.into(),
+            fix: fix.into(),
+        }
+    }
+
+    /// Shorthand for [`Error::Io`].
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

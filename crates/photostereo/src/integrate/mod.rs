@@ -1,0 +1,1 @@
+//! Integration of a normal field into depth (to be written).
