@@ -180,7 +180,10 @@ impl ImageStack {
     /// Interleave K separate images (all of the same size) into a stack.
     pub fn from_images(images: &[GrayImage]) -> Result<Self> {
         let Some(first) = images.first() else {
-            return Err(Error::invalid("image stack", "at least one image is needed"));
+            return Err(Error::invalid(
+                "image stack",
+                "at least one image is needed",
+            ));
         };
         let (w, h, k) = (first.width, first.height, images.len());
         let mut stack = ImageStack::zeros(w, h, k);
@@ -226,7 +229,13 @@ impl ImageStack {
         Image {
             width: self.width,
             height: self.height,
-            data: self.data.iter().skip(light).step_by(self.k).copied().collect(),
+            data: self
+                .data
+                .iter()
+                .skip(light)
+                .step_by(self.k)
+                .copied()
+                .collect(),
         }
     }
 

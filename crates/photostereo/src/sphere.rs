@@ -40,7 +40,11 @@ mod tests {
 
     #[test]
     fn normal_points_out_of_the_sphere_in_camera_frame() {
-        let c = Circle { cx: 50.0, cy: 50.0, radius: 40.0 };
+        let c = Circle {
+            cx: 50.0,
+            cy: 50.0,
+            radius: 40.0,
+        };
         // centre pixel faces the camera
         let n = c.normal_at(49, 49, 0.0).unwrap();
         assert!(n[2] > 0.999);

@@ -1,0 +1,204 @@
+//! Synthetic photometric-stereo scenes with exact ground truth.
+//!
+//! An orthographic camera looks down −z at an analytic height field z(x, y)
+//! ([`Shape`], pixel units, larger = closer) lit by K directional lights
+//! ([`Lights`], unit, surface → light). Each pixel centre gets its exact normal
+//! ([`shape_geometry`]), and its K intensities
+//!
+//! I_k = e · i_k · shade(material, n, l_k, ρ(x, y)) · [not in cast shadow] + noise,
+//!
+//! with e the `exposure`, i_k the light intensity, ρ the optional albedo texture and
+//! [`shade`] the BRDF ([`Material`]: Lambertian, Blinn–Phong, GGX/Cook–Torrance). Attached
+//! shadows (n·l ≤ 0) are zero through the BRDF; cast shadows come from marching a ray
+//! toward each light over the height field ([`shadow`]). Pixels outside the mask get
+//! `background` in every image. Only direct light is simulated (no interreflections).
+//!
+//! Intensity scale: a Lambertian surface of albedo 1 facing a light of intensity 1 gives
+//! 1, so I = ρ·max(n·l, 0) for Lambertian. Specular highlights may exceed 1: the stack
+//! is float. With `quantize_16bit` every sample is clipped to [0, 1] and rounded to a
+//! multiple of 1/65535 (error ≤ 1/131070) — lower `exposure` to avoid clipping highlights.
+//!
+//! Noise: i.i.d. Gaussian N(0, σ²) added to every sample (background included) after
+//! exposure and before quantisation; values may go negative unless quantised.
+//! The generator is SplitMix64 + Box–Muller seeded per row from `seed` ([`random`]), so
+//! a render is deterministic whatever the number of threads.
+
+mod brdf;
+pub mod random;
+mod render;
+pub mod shadow;
+mod shapes;
+
+pub use brdf::{shade, Material};
+pub use shapes::{shape_geometry, Bump, Shape, ShapeKind};
+
+use crate::error::{Error, Result};
+use crate::image::{DepthMap, GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
+use crate::progress::{NoProgress, Progress};
+
+/// Everything that defines a synthetic scene.
+#[derive(Clone, Debug)]
+pub struct SceneOptions {
+    /// Image width (pixels, ≥ 1).
+    pub width: usize,
+    /// Image height (pixels, ≥ 1).
+    pub height: usize,
+    /// The surface (pixel units, centred in the image).
+    pub shape: Shape,
+    /// The reflectance.
+    pub material: Material,
+    /// K directional lights (unit directions toward the light; intensities multiply).
+    pub lights: Lights,
+    /// Ray-march cast shadows (attached shadows are always there).
+    pub cast_shadows: bool,
+    /// Multiply the diffuse coefficient by a smooth texture in [0.4, 1].
+    pub albedo_texture: bool,
+    /// Standard deviation of additive Gaussian noise, in units where the Lambertian
+    /// white facing the light is 1 (0 = none).
+    pub noise_sigma: f32,
+    /// Clip to [0, 1] and round to 16-bit levels (after noise).
+    pub quantize_16bit: bool,
+    /// Seed of the noise and of the albedo texture.
+    pub seed: u64,
+    /// Global scale e of every radiance (before noise); 1 keeps the physical scale.
+    pub exposure: f32,
+    /// Value of the pixels outside the mask in every image (0 = black).
+    pub background: f32,
+}
+
+impl Default for SceneOptions {
+    /// 256×256 blob, shiny plastic, 16 default lights, cast shadows, no texture, no
+    /// noise, float output, seed 0, exposure 1, black background.
+    fn default() -> Self {
+        SceneOptions {
+            width: 256,
+            height: 256,
+            shape: Shape::preset(ShapeKind::Blob, 256, 256),
+            material: Material::shiny_plastic(),
+            lights: default_lights(16),
+            cast_shadows: true,
+            albedo_texture: false,
+            noise_sigma: 0.0,
+            quantize_16bit: false,
+            seed: 0,
+            exposure: 1.0,
+            background: 0.0,
+        }
+    }
+}
+
+/// A rendered scene with its ground truth.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The K images (pixel-major), named `001.png`, `002.png`, ...
+    pub stack: ImageStack,
+    /// The lights used (as in the options).
+    pub lights: Lights,
+    /// Pixels on the surface.
+    pub mask: Mask,
+    /// Exact unit normals (`[0, 0, 0]` outside the mask).
+    pub normals: NormalMap,
+    /// Exact depth (pixels, larger = closer, NaN outside the mask).
+    pub depth: DepthMap,
+    /// Diffuse albedo per pixel (diffuse coefficient × texture; 0 outside the mask).
+    pub albedo: GrayImage,
+    /// Number of lights whose cast shadow covers the pixel (facing the light, occluded).
+    pub shadowed: Image<u16>,
+}
+
+/// K light directions between 15° and 60° from the view axis +z, evenly spread in
+/// solid angle: cos θ_i runs linearly from cos 15° to cos 60° (midpoints of K bins) and
+/// the azimuth advances by the golden angle (a Fibonacci spiral). Unit intensities.
+pub fn default_lights(k: usize) -> Lights {
+    let (c_lo, c_hi) = (15f64.to_radians().cos(), 60f64.to_radians().cos());
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let directions = (0..k)
+        .map(|i| {
+            let t = (i as f64 + 0.5) / k as f64;
+            let cz = c_lo + (c_hi - c_lo) * t;
+            let sz = (1.0 - cz * cz).sqrt();
+            let phi = golden * i as f64;
+            [(sz * phi.cos()) as f32, (sz * phi.sin()) as f32, cz as f32]
+        })
+        .collect();
+    Lights::from_directions(directions)
+}
+
+/// Render a scene (see the module docs for the image formation).
+pub fn render(opts: &SceneOptions) -> Result<Scene> {
+    render_with_progress(opts, &NoProgress)
+}
+
+/// [`render`], reporting one step per image row to `progress`.
+pub fn render_with_progress(opts: &SceneOptions, progress: &dyn Progress) -> Result<Scene> {
+    validate(opts)?;
+    render::render_scene(opts, progress)
+}
+
+/// A calibration sphere of radius `radius` pixels with the same material, lights,
+/// noise, quantisation, exposure and background as `opts` (no albedo texture), on a
+/// square image of side ⌈2·radius⌉ + 4.
+pub fn render_calibration_sphere(opts: &SceneOptions, radius: f64) -> Result<Scene> {
+    if !(radius.is_finite() && radius > 0.0 && radius < 1e5) {
+        return Err(Error::invalid(
+            format!("calibration sphere radius {radius}"),
+            "use a radius in pixels, > 0 and < 100000",
+        ));
+    }
+    let side = (2.0 * radius).ceil() as usize + 4;
+    let sphere = SceneOptions {
+        width: side,
+        height: side,
+        shape: Shape::Sphere { radius },
+        albedo_texture: false,
+        ..opts.clone()
+    };
+    render(&sphere)
+}
+
+fn validate(opts: &SceneOptions) -> Result<()> {
+    if opts.width == 0 || opts.height == 0 {
+        return Err(Error::invalid(
+            format!("scene size {}x{}", opts.width, opts.height),
+            "width and height must be at least 1 pixel",
+        ));
+    }
+    if opts.width.saturating_mul(opts.height) > 1 << 28 {
+        return Err(Error::invalid(
+            format!("scene size {}x{}", opts.width, opts.height),
+            "use at most 2^28 pixels",
+        ));
+    }
+    let lights = &opts.lights;
+    if lights.is_empty() {
+        return Err(Error::invalid("scene lights", "give at least one light"));
+    }
+    if lights.intensities.len() != lights.len() {
+        return Err(Error::LightCount {
+            what: "scene light intensities".into(),
+            expected: lights.len(),
+            found: lights.intensities.len(),
+            fix: "give one intensity per light direction".into(),
+        });
+    }
+    let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
+    let bad_dir = lights
+        .directions
+        .iter()
+        .any(|d| !finite(d) || (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - 1.0).abs() > 1e-3);
+    if bad_dir || !finite(&lights.intensities) {
+        return Err(Error::invalid(
+            "scene lights",
+            "directions must be finite unit vectors and intensities finite",
+        ));
+    }
+    let scalars = [opts.noise_sigma, opts.exposure, opts.background];
+    if !finite(&scalars) || opts.noise_sigma < 0.0 {
+        return Err(Error::invalid(
+            "scene noise_sigma / exposure / background",
+            "must be finite, noise_sigma >= 0",
+        ));
+    }
+    opts.shape.validate()?;
+    opts.material.validate()
+}
