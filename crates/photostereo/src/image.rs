@@ -303,7 +303,7 @@ pub fn pixel_to_xy(row: usize, col: usize, width: usize, height: usize) -> (f64,
 /// Returns `None` when n_z ≤ `min_nz`.
 #[inline]
 pub fn normal_to_gradient(n: [f32; 3], min_nz: f32) -> Option<(f32, f32)> {
-    if !(n[2] > min_nz) {
+    if n[2].is_nan() || n[2] <= min_nz {
         return None;
     }
     Some((-n[0] / n[2], -n[1] / n[2]))
