@@ -1,1 +1,243 @@
-//! (to be written)
+//! Triangle meshes from depth maps, written as binary PLY or OBJ.
+//!
+//! One vertex per mask pixel with a finite depth, at the pixel centre in camera
+//! coordinates (x = c + 0.5 − W/2, y = H/2 − r − 0.5, z = depth; all in pixel units,
+//! see the crate conventions). Every 2 × 2 block of pixels gives up to two triangles,
+//! and a triangle is emitted only when its three corners are vertices. Triangles wind
+//! counter-clockwise seen from the camera (+z), so face normals point toward it.
+//!
+//! Vertex normals come from the normal map when given (where it is a finite unit
+//! vector), otherwise from central differences of the depth. An albedo map becomes a
+//! grey vertex colour, scaled so that the largest albedo inside the mask is 255.
+//!
+//! Writers take any `std::io::Write`; the library opens no files.
+
+use crate::error::{Error, Result};
+use crate::image::{normalize, pixel_to_xy, DepthMap, GrayImage, Mask, NormalMap};
+use std::io::Write;
+
+/// An indexed triangle mesh.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    /// Vertex positions (x, y, z) in pixel units, camera frame.
+    pub vertices: Vec<[f32; 3]>,
+    /// Unit vertex normals, one per vertex.
+    pub normals: Vec<[f32; 3]>,
+    /// Optional RGB colour per vertex.
+    pub colors: Option<Vec<[u8; 3]>>,
+    /// Triangles as indices into `vertices`, counter-clockwise seen from +z.
+    pub faces: Vec<[u32; 3]>,
+}
+
+fn check_size(what: &str, w: usize, h: usize, depth: &DepthMap) -> Result<()> {
+    if w != depth.width || h != depth.height {
+        return Err(Error::SizeMismatch {
+            what: what.into(),
+            expected_w: depth.width,
+            expected_h: depth.height,
+            found_w: w,
+            found_h: h,
+            fix: "use maps of the same size as the depth map".into(),
+        });
+    }
+    Ok(())
+}
+
+/// Build a mesh from a depth map and its mask (see the module documentation).
+pub fn from_depth(
+    depth: &DepthMap,
+    mask: &Mask,
+    normals: Option<&NormalMap>,
+    albedo: Option<&GrayImage>,
+) -> Result<Mesh> {
+    let (w, h) = (depth.width, depth.height);
+    check_size("mesh mask", mask.width, mask.height, depth)?;
+    if let Some(n) = normals {
+        check_size("mesh normal map", n.width, n.height, depth)?;
+    }
+    if let Some(a) = albedo {
+        check_size("mesh albedo", a.width, a.height, depth)?;
+    }
+    let valid = |i: usize| mask.data[i] && depth.data[i].is_finite();
+    let mut index = vec![u32::MAX; w * h];
+    let mut mesh = Mesh::default();
+    for r in 0..h {
+        for c in 0..w {
+            let i = r * w + c;
+            if !valid(i) {
+                continue;
+            }
+            if mesh.vertices.len() >= u32::MAX as usize {
+                return Err(Error::invalid("mesh", "more than 4 billion vertices"));
+            }
+            index[i] = mesh.vertices.len() as u32;
+            let (x, y) = pixel_to_xy(r, c, w, h);
+            mesh.vertices.push([x as f32, y as f32, depth.data[i]]);
+            mesh.normals
+                .push(vertex_normal(depth, &valid, normals, r, c));
+        }
+    }
+    if mesh.vertices.is_empty() {
+        return Err(Error::EmptyMask {
+            what: "mesh".into(),
+            fix: "the mask selects no pixel with a finite depth".into(),
+        });
+    }
+    if let Some(a) = albedo {
+        mesh.colors = Some(colors(a, &index));
+    }
+    mesh.faces = faces(&index, w, h);
+    Ok(mesh)
+}
+
+/// Normal of the vertex at (r, c): from the normal map when usable, else from the depth.
+fn vertex_normal(
+    depth: &DepthMap,
+    valid: &impl Fn(usize) -> bool,
+    normals: Option<&NormalMap>,
+    r: usize,
+    c: usize,
+) -> [f32; 3] {
+    let (w, h) = (depth.width, depth.height);
+    let i = r * w + c;
+    if let Some(n) = normals.map(|m| m.data[i]) {
+        let len2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+        if len2.is_finite() && len2 > 0.5 {
+            return normalize(n);
+        }
+    }
+    // One-sided or central differences between valid neighbours; ∂z/∂y = −∂z/∂row.
+    let d = |a: Option<usize>, b: Option<usize>| -> f32 {
+        let a = a.filter(|&j| valid(j));
+        let b = b.filter(|&j| valid(j));
+        match (a, b) {
+            (Some(a), Some(b)) => (depth.data[b] - depth.data[a]) / 2.0,
+            (Some(a), None) => depth.data[i] - depth.data[a],
+            (None, Some(b)) => depth.data[b] - depth.data[i],
+            (None, None) => 0.0,
+        }
+    };
+    let p = d((c > 0).then(|| i - 1), (c + 1 < w).then_some(i + 1));
+    let q = -d((r > 0).then(|| i - w), (r + 1 < h).then_some(i + w));
+    normalize([-p, -q, 1.0])
+}
+
+fn colors(albedo: &GrayImage, index: &[u32]) -> Vec<[u8; 3]> {
+    let inside = || {
+        albedo
+            .data
+            .iter()
+            .zip(index)
+            .filter(|(_, &k)| k != u32::MAX)
+    };
+    let max = inside()
+        .map(|(&a, _)| a)
+        .filter(|a| a.is_finite())
+        .fold(0.0f32, f32::max);
+    let scale = if max > 0.0 { 255.0 / max } else { 0.0 };
+    inside()
+        .map(|(&a, _)| {
+            let v = if a.is_finite() {
+                (a * scale).round().clamp(0.0, 255.0) as u8
+            } else {
+                0
+            };
+            [v; 3]
+        })
+        .collect()
+}
+
+/// Triangles of every 2 × 2 block: a b / c d → (a, c, b) and (b, c, d) when all four
+/// are vertices, otherwise the one triangle of the three that are.
+fn faces(index: &[u32], w: usize, h: usize) -> Vec<[u32; 3]> {
+    let mut faces = Vec::new();
+    for r in 0..h.saturating_sub(1) {
+        for c in 0..w.saturating_sub(1) {
+            let i = r * w + c;
+            let (a, b, cc, d) = (index[i], index[i + 1], index[i + w], index[i + w + 1]);
+            let ok = |v: u32| v != u32::MAX;
+            match (ok(a), ok(b), ok(cc), ok(d)) {
+                (true, true, true, true) => {
+                    faces.push([a, cc, b]);
+                    faces.push([b, cc, d]);
+                }
+                (false, true, true, true) => faces.push([b, cc, d]),
+                (true, false, true, true) => faces.push([a, cc, d]),
+                (true, true, false, true) => faces.push([a, d, b]),
+                (true, true, true, false) => faces.push([a, cc, b]),
+                _ => {}
+            }
+        }
+    }
+    faces
+}
+
+fn io_err(e: std::io::Error) -> Error {
+    Error::io("<mesh output>", e)
+}
+
+/// Write a binary little-endian PLY: float x y z nx ny nz, optional uchar red green
+/// blue, and faces as `list uchar int vertex_indices`.
+pub fn write_ply_binary(mesh: &Mesh, out: &mut impl Write) -> Result<()> {
+    let mut header = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment photostereo mesh, pixel units, camera frame (x right, y up, z toward the camera)\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\n",
+        mesh.vertices.len()
+    );
+    if mesh.colors.is_some() {
+        header.push_str("property uchar red\nproperty uchar green\nproperty uchar blue\n");
+    }
+    header.push_str(&format!(
+        "element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        mesh.faces.len()
+    ));
+    let mut buf =
+        Vec::with_capacity(header.len() + mesh.vertices.len() * 27 + mesh.faces.len() * 13);
+    buf.extend_from_slice(header.as_bytes());
+    for (k, (v, n)) in mesh.vertices.iter().zip(&mesh.normals).enumerate() {
+        for x in v.iter().chain(n.iter()) {
+            buf.extend_from_slice(&x.to_le_bytes());
+        }
+        if let Some(col) = &mesh.colors {
+            buf.extend_from_slice(&col[k]);
+        }
+    }
+    for f in &mesh.faces {
+        buf.push(3);
+        for &i in f {
+            buf.extend_from_slice(&(i as i32).to_le_bytes());
+        }
+    }
+    out.write_all(&buf).map_err(io_err)?;
+    out.flush().map_err(io_err)
+}
+
+/// Write a Wavefront OBJ: `v x y z [r g b]` (colours in 0..1, a common extension),
+/// `vn`, and faces `f a//a b//b c//c` (1-based).
+pub fn write_obj(mesh: &Mesh, out: &mut impl Write) -> Result<()> {
+    let mut s = String::with_capacity(mesh.vertices.len() * 60 + mesh.faces.len() * 30);
+    s.push_str(
+        "# photostereo mesh, pixel units, camera frame (x right, y up, z toward the camera)\n",
+    );
+    for (k, v) in mesh.vertices.iter().enumerate() {
+        s.push_str(&format!("v {} {} {}", v[0], v[1], v[2]));
+        if let Some(col) = &mesh.colors {
+            let c = col[k];
+            s.push_str(&format!(
+                " {:.4} {:.4} {:.4}",
+                c[0] as f32 / 255.0,
+                c[1] as f32 / 255.0,
+                c[2] as f32 / 255.0
+            ));
+        }
+        s.push('\n');
+    }
+    for n in &mesh.normals {
+        s.push_str(&format!("vn {} {} {}\n", n[0], n[1], n[2]));
+    }
+    for f in &mesh.faces {
+        let (a, b, c) = (f[0] + 1, f[1] + 1, f[2] + 1);
+        s.push_str(&format!("f {a}//{a} {b}//{b} {c}//{c}\n"));
+    }
+    out.write_all(s.as_bytes()).map_err(io_err)?;
+    out.flush().map_err(io_err)
+}

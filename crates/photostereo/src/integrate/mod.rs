@@ -1,1 +1,357 @@
-//! Integration of a normal field into depth (to be written).
+//! Integration of a normal field into depth.
+//!
+//! # The problem
+//!
+//! A normal n = (n_x, n_y, n_z) gives the surface gradient (see the crate conventions)
+//! p = ∂z/∂x = −n_x/n_z and q = ∂z/∂y = −n_y/n_z. Because rows grow downward
+//! (y up), along the pixel grid
+//!
+//! * z(r, c+1) − z(r, c) ≈ (p(r, c) + p(r, c+1)) / 2        (horizontal edge),
+//! * z(r+1, c) − z(r, c) ≈ −(q(r, c) + q(r+1, c)) / 2       (vertical edge, ∂z/∂row = −q).
+//!
+//! Each target is the trapezoidal mean of the two end gradients, which makes every
+//! solver second-order accurate on smooth surfaces. Measured gradients are noisy and
+//! not exactly integrable, so every method except [`Method::Path`] minimises
+//!
+//! E(z) = Σ over edges e = (i, j) of w_e · (z_j − z_i − g_e)²,
+//!
+//! over a different set of edges (the boundary assumption):
+//!
+//! | method | edges | boundary | cost |
+//! |---|---|---|---|
+//! | [`Method::Path`] | two spanning trees | none | O(N) |
+//! | [`Method::FrankotChellappa`] | whole grid, wrapping around | periodic | 2 FFTs |
+//! | FC with `reflect` | mirrored grid (2W × 2H) | mirror = Neumann | 2 FFTs of 4N |
+//! | [`Method::Dct`] | whole rectangle | Neumann (free edge) | 2 DCTs |
+//! | [`Method::Lsq`] | only between mask pixels | free edge of the mask | sparse Cholesky |
+//!
+//! The normal equations of E are a graph Laplacian system L z = div g.
+//!
+//! # Offsets
+//!
+//! Depth from gradients is known up to one constant per connected part of the mask
+//! (4-connectivity). **Every method returns a depth whose mean over each connected
+//! part of the mask is 0**: relative heights of separate parts cannot be measured
+//! from normals, so none is invented. Outside the mask the depth is NaN.
+//!
+//! # Bad normals
+//!
+//! Inside the mask, normals with n_z ≤ [`Options::min_nz`] (including the zero vector
+//! that marks "unknown") or with a NaN component are clamped and counted in
+//! [`Output::clamped`]: NaN gives a flat gradient (0, 0); a finite normal gets
+//! n_z := `min_nz`, i.e. its slope is limited to 1/`min_nz`. No NaN ever reaches the
+//! depth inside the mask.
+//!
+//! # References
+//!
+//! * R. T. Frankot, R. Chellappa, "A method for enforcing integrability in shape from
+//!   shading algorithms", IEEE PAMI 10(4), 1988.
+//! * T. Simchony, R. Chellappa, M. Shao, "Direct analytical methods for solving Poisson
+//!   equations in computer vision problems", IEEE PAMI 12(5), 1990.
+//! * Y. Quéau, J.-D. Durou, J.-F. Aujol, "Normal integration: a survey", JMIV 60, 2018.
+
+mod dct;
+mod fft2;
+mod fourier;
+mod lsq;
+pub mod path;
+mod support;
+
+use crate::error::{Error, Result};
+use crate::image::{DepthMap, GrayImage, Image, Mask, NormalMap};
+use crate::progress::{NoProgress, Progress};
+
+pub use fft2::fft_floor;
+pub use support::{label_components, Components};
+
+/// How to turn gradients into depth. Each variant states its equation and its
+/// boundary assumption; see the module documentation for the common notation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Path integration: cumulative trapezoidal sums from a reference pixel (the mask
+    /// pixel nearest the image centre), once along its row then down/up every column,
+    /// once along its column then along every row; the result is the average of the
+    /// two, and [`Output::path_disagreement`] is their RMS difference over the mask.
+    /// No boundary assumption, but noise accumulates along the path (random walk) and
+    /// the result depends on the path. Pixels outside the mask count as flat.
+    Path,
+    /// Frankot–Chellappa: least squares over the whole grid in the Fourier domain,
+    /// Z(ω_c, ω_r) = (−iω_c·P + iω_r·Q) / (ω_c² + ω_r²) with Z(0,0) := 0 (our signs:
+    /// ∂/∂col ↔ iω_c acts on p, ∂/∂row ↔ iω_r acts on −q). Implemented with the
+    /// finite-difference symbols of the pixel grid (divergence of the trapezoidal edge
+    /// gradients, eigenvalues 2cos ω_c + 2cos ω_r − 4 of the periodic Laplacian), which is
+    /// the exact least-squares solution on the periodic grid and tends to the formula
+    /// above for small ω. **Boundary: periodic** — the grid wraps around, so a surface
+    /// whose gradient differs between opposite edges gets a boundary error. With
+    /// `reflect: true` the gradient field is mirrored to 2W × 2H first (across a
+    /// vertical edge p changes sign, q does not; across a horizontal edge the reverse),
+    /// which makes it periodic and equals the Neumann solution of [`Method::Dct`] at four
+    /// times the cost. Pixels outside the mask count as flat.
+    FrankotChellappa {
+        /// Mirror the gradient field before the FFT (removes the periodic-boundary bias).
+        reflect: bool,
+    },
+    /// DCT Poisson solver (Simchony et al. 1990): Δz = ∂p/∂x + ∂q/∂y discretised as the
+    /// Neumann graph Laplacian of the full rectangle, diagonalised by the 2-D DCT-II with
+    /// eigenvalues 2cos(πk/W) + 2cos(πl/H) − 4. **Boundary: Neumann** (no edge crosses
+    /// the image border), so no periodicity artefacts on a rectangle. Pixels outside the
+    /// mask count as flat, which is wrong for objects on a background: use `Lsq` there.
+    Dct,
+    /// Masked least squares: E(z) over the edges whose two ends are both inside the
+    /// mask, with optional per-pixel weights (edge weight = mean of its two pixels'
+    /// weights). The normal equations L z = b (a weighted graph Laplacian) are solved by
+    /// sparse Cholesky (`faer`, AMD ordering), with one pixel per connected part pinned
+    /// to 0 (then each part is shifted to mean 0). **Boundary: the mask's own edge**;
+    /// holes and several parts are handled exactly.
+    Lsq,
+}
+
+impl Method {
+    /// Short name used on the command line (`path`, `fc`, `fc-reflect`, `dct`, `lsq`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Method::Path => "path",
+            Method::FrankotChellappa { reflect: false } => "fc",
+            Method::FrankotChellappa { reflect: true } => "fc-reflect",
+            Method::Dct => "dct",
+            Method::Lsq => "lsq",
+        }
+    }
+
+    /// Parse a name produced by [`Method::name`].
+    pub fn from_name(name: &str) -> Result<Self> {
+        Ok(match name {
+            "path" => Method::Path,
+            "fc" => Method::FrankotChellappa { reflect: false },
+            "fc-reflect" => Method::FrankotChellappa { reflect: true },
+            "dct" => Method::Dct,
+            "lsq" => Method::Lsq,
+            other => {
+                return Err(Error::invalid(
+                    format!("integration method `{other}`"),
+                    "use one of path, fc, fc-reflect, dct, lsq",
+                ))
+            }
+        })
+    }
+}
+
+/// Options of [`solve`] and [`integrate_gradients`].
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// The integrator (default [`Method::Lsq`]; [`choose_method`] picks one from the mask).
+    pub method: Method,
+    /// Per-pixel confidence (≥ 0, same size as the mask) weighting the least-squares
+    /// edges; only [`Method::Lsq`] uses it (an error otherwise). NaN or negative values
+    /// count as 0, and weights are floored at 1e-4 × their maximum so that every part
+    /// stays connected.
+    pub weights: Option<GrayImage>,
+    /// Smallest accepted n_z (unitless, default 0.05, i.e. slopes up to 20 pixel/pixel,
+    /// 87°); normals below it are clamped and counted.
+    pub min_nz: f32,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            method: Method::Lsq,
+            weights: None,
+            min_nz: 0.05,
+        }
+    }
+}
+
+/// Solver diagnostics.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolverInfo {
+    /// Iterations of an iterative solver (0: all methods here are direct).
+    pub iterations: usize,
+    /// RMS over the in-mask edges of z_j − z_i − g_e (depth units per pixel step): how
+    /// far the gradients are from being integrable plus the method's own error.
+    pub residual: f32,
+}
+
+/// Result of an integration.
+#[derive(Clone, Debug)]
+pub struct Output {
+    /// Depth in pixel units (larger = closer), mean 0 over each connected part of the
+    /// mask, NaN outside the mask.
+    pub depth: DepthMap,
+    /// The method that was used.
+    pub method: Method,
+    /// Normals inside the mask with n_z ≤ `min_nz` or a NaN component, clamped.
+    pub clamped: usize,
+    /// [`Method::Path`] only: RMS over the mask of the difference between the
+    /// row-first and the column-first path (pixel units).
+    pub path_disagreement: Option<f32>,
+    /// Number of 4-connected parts of the mask (each has its own offset).
+    pub components: usize,
+    /// Solver diagnostics.
+    pub info: SolverInfo,
+}
+
+/// The method to use when the user names none: [`Method::Dct`] when the mask covers
+/// the whole rectangle, [`Method::Lsq`] otherwise.
+pub fn choose_method(mask: &Mask) -> Method {
+    if mask.data.iter().all(|&b| b) {
+        Method::Dct
+    } else {
+        Method::Lsq
+    }
+}
+
+/// Gradients (p, q) of a normal map inside the mask (0 outside), and the number of
+/// normals that had to be clamped (see the module documentation).
+pub fn gradients(normals: &NormalMap, mask: &Mask, min_nz: f32) -> (GrayImage, GrayImage, usize) {
+    let (w, h) = (normals.width, normals.height);
+    let mut p = GrayImage::filled(w, h, 0.0);
+    let mut q = GrayImage::filled(w, h, 0.0);
+    let mut clamped = 0;
+    for (i, n) in normals.data.iter().enumerate() {
+        if !mask.data.get(i).copied().unwrap_or(false) {
+            continue;
+        }
+        if n.iter().any(|v| v.is_nan()) {
+            clamped += 1;
+            continue;
+        }
+        let nz = if n[2] > min_nz {
+            n[2]
+        } else {
+            clamped += 1;
+            min_nz.max(f32::MIN_POSITIVE)
+        };
+        p.data[i] = (-n[0] / nz).clamp(-1e6, 1e6);
+        q.data[i] = (-n[1] / nz).clamp(-1e6, 1e6);
+    }
+    (p, q, clamped)
+}
+
+/// Integrate a normal map inside a mask.
+pub fn solve(normals: &NormalMap, mask: &Mask, opts: &Options) -> Result<Output> {
+    solve_with_progress(normals, mask, opts, &NoProgress)
+}
+
+/// [`solve`] reporting progress (used for the slow [`Method::Lsq`]).
+pub fn solve_with_progress(
+    normals: &NormalMap,
+    mask: &Mask,
+    opts: &Options,
+    progress: &dyn Progress,
+) -> Result<Output> {
+    mask.check_size(normals.width, normals.height, "integration mask")?;
+    let (p, q, clamped) = gradients(normals, mask, opts.min_nz);
+    let mut out = integrate_gradients_with_progress(&p, &q, mask, opts, progress)?;
+    out.clamped = clamped;
+    Ok(out)
+}
+
+/// Integrate gradients p = ∂z/∂x, q = ∂z/∂y inside a mask. Non-finite gradients inside
+/// the mask are counted in [`Output::clamped`] and treated as 0.
+pub fn integrate_gradients(
+    p: &GrayImage,
+    q: &GrayImage,
+    mask: &Mask,
+    opts: &Options,
+) -> Result<Output> {
+    integrate_gradients_with_progress(p, q, mask, opts, &NoProgress)
+}
+
+/// [`integrate_gradients`] reporting progress.
+pub fn integrate_gradients_with_progress(
+    p: &GrayImage,
+    q: &GrayImage,
+    mask: &Mask,
+    opts: &Options,
+    progress: &dyn Progress,
+) -> Result<Output> {
+    let (w, h) = (p.width, p.height);
+    check_inputs(p, q, mask, opts)?;
+    let (p, q, clamped) = support::sanitize(p, q, mask);
+    let comps = label_components(mask);
+    let mut path_disagreement = None;
+    let z: Vec<f64> = match opts.method {
+        Method::Path => {
+            let (z, dis) = path::integrate(&p, &q, mask);
+            path_disagreement = Some(dis);
+            z
+        }
+        Method::FrankotChellappa { reflect } => fourier::integrate(&p, &q, w, h, reflect)?,
+        Method::Dct => dct::integrate(&p, &q, w, h),
+        Method::Lsq => lsq::integrate(&p, &q, mask, opts.weights.as_ref(), &comps, progress)?,
+    };
+    if z.iter().any(|v| !v.is_finite()) {
+        return Err(Error::invalid(
+            "integration",
+            "the solver produced non-finite depth; check the gradients for huge values",
+        ));
+    }
+    let residual = support::edge_residual(&z, &p, &q, mask) as f32;
+    let depth = support::center_components(&z, &comps, w, h);
+    Ok(Output {
+        depth,
+        method: opts.method,
+        clamped,
+        path_disagreement,
+        components: comps.count,
+        info: SolverInfo {
+            iterations: 0,
+            residual,
+        },
+    })
+}
+
+fn check_inputs(p: &GrayImage, q: &GrayImage, mask: &Mask, opts: &Options) -> Result<()> {
+    let (w, h) = (p.width, p.height);
+    if !q.same_size(p) {
+        return Err(Error::SizeMismatch {
+            what: "gradient q".into(),
+            expected_w: w,
+            expected_h: h,
+            found_w: q.width,
+            found_h: q.height,
+            fix: "p and q must have the same size".into(),
+        });
+    }
+    mask.check_size(w, h, "integration mask")?;
+    if w < 2 || h < 2 {
+        return Err(Error::invalid(
+            format!("{w}x{h} normal map"),
+            "integration needs an image of at least 2x2 pixels",
+        ));
+    }
+    mask.check_not_empty("integration mask")?;
+    if let Some(weights) = &opts.weights {
+        if opts.method != Method::Lsq {
+            return Err(Error::invalid(
+                format!("weights with method {}", opts.method.name()),
+                "per-pixel weights are only used by lsq; choose lsq or drop the weights",
+            ));
+        }
+        if !weights.same_size(p) {
+            return Err(Error::SizeMismatch {
+                what: "integration weights".into(),
+                expected_w: w,
+                expected_h: h,
+                found_w: weights.width,
+                found_h: weights.height,
+                fix: "use a confidence map of the same size as the normals".into(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Convert an `f64` buffer to a depth map, NaN outside the mask (helper for callers
+/// that integrate outside [`solve`]).
+pub fn to_depth(z: &[f64], mask: &Mask) -> DepthMap {
+    Image {
+        width: mask.width,
+        height: mask.height,
+        data: z
+            .iter()
+            .zip(&mask.data)
+            .map(|(&v, &m)| if m { v as f32 } else { f32::NAN })
+            .collect(),
+    }
+}

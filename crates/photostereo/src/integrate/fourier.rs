@@ -1,0 +1,82 @@
+//! Frankot–Chellappa integration on the periodic pixel grid, optionally on the
+//! mirrored (2W × 2H) gradient field.
+//!
+//! Least squares over all edges of the periodic grid gives L z = div g with
+//! div g(r, c) = (p(r, c+1) − p(r, c−1))/2 − (q(r+1, c) − q(r−1, c))/2 (indices modulo
+//! the size), the divergence of the trapezoidal edge targets. The 2-D DFT diagonalises
+//! the periodic Laplacian L with eigenvalues λ = 2cos(2πk/W) + 2cos(2πl/H) − 4, so
+//! Z = DFT(div g)/λ and Z(0, 0) := 0. For small frequencies this is the textbook
+//! Z = (−iω_c P + iω_r Q)/(ω_c² + ω_r²) in our conventions (see [`super::Method`]).
+
+use super::fft2::Fft2;
+use crate::error::Result;
+use std::f64::consts::PI;
+
+/// Solve on the periodic grid (or on its mirror image when `reflect`); returns the
+/// W × H depth (arbitrary offset).
+pub(crate) fn integrate(
+    p: &[f64],
+    q: &[f64],
+    w: usize,
+    h: usize,
+    reflect: bool,
+) -> Result<Vec<f64>> {
+    if !reflect {
+        let div = divergence(w, h, |r, c| (p[r * w + c], q[r * w + c]));
+        return Ok(solve_periodic(div, w, h));
+    }
+    let (we, he) = (2 * w, 2 * h);
+    // Mirror about the right and bottom edges: p is odd across a vertical edge and
+    // even across a horizontal one, q the reverse.
+    let div = divergence(we, he, |r, c| {
+        let (mr, sr) = if r < h { (r, 1.0) } else { (he - 1 - r, -1.0) };
+        let (mc, sc) = if c < w { (c, 1.0) } else { (we - 1 - c, -1.0) };
+        let i = mr * w + mc;
+        (sc * p[i], sr * q[i])
+    });
+    let z = solve_periodic(div, we, he);
+    let mut out = Vec::with_capacity(w * h);
+    for r in 0..h {
+        out.extend_from_slice(&z[r * we..r * we + w]);
+    }
+    Ok(out)
+}
+
+/// Periodic divergence of the trapezoidal edge targets, `grad(r, c) = (p, q)`.
+fn divergence(w: usize, h: usize, grad: impl Fn(usize, usize) -> (f64, f64) + Sync) -> Vec<f32> {
+    use rayon::prelude::*;
+    let mut div = vec![0.0f32; w * h];
+    div.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
+        let (up, down) = ((r + h - 1) % h, (r + 1) % h);
+        for (c, v) in row.iter_mut().enumerate() {
+            let (left, right) = ((c + w - 1) % w, (c + 1) % w);
+            let dp = grad(r, right).0 - grad(r, left).0;
+            let dq = grad(down, c).1 - grad(up, c).1;
+            *v = (0.5 * (dp - dq)) as f32;
+        }
+    });
+    div
+}
+
+/// Solve L z = div on the periodic W × H grid by FFT.
+fn solve_periodic(mut div: Vec<f32>, w: usize, h: usize) -> Vec<f64> {
+    use rayon::prelude::*;
+    let fft = Fft2::new(w, h);
+    let mut spec = fft.forward(&mut div);
+    drop(div);
+    let cos_r: Vec<f64> = (0..h)
+        .map(|l| 2.0 * (2.0 * PI * l as f64 / h as f64).cos())
+        .collect();
+    spec.par_chunks_mut(h).enumerate().for_each(|(k, col)| {
+        let ck = 2.0 * (2.0 * PI * k as f64 / w as f64).cos() - 4.0;
+        for (l, v) in col.iter_mut().enumerate() {
+            let lambda = ck + cos_r[l];
+            *v = if lambda.abs() < 1e-12 {
+                Default::default()
+            } else {
+                *v * (1.0 / lambda) as f32
+            };
+        }
+    });
+    fft.inverse(&mut spec).into_iter().map(f64::from).collect()
+}
