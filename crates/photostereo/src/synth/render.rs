@@ -12,19 +12,18 @@ use rayon::prelude::*;
 pub(super) fn render_scene(opts: &SceneOptions, progress: &dyn Progress) -> Result<Scene> {
     let (w, h, k) = (opts.width, opts.height, opts.lights.len());
     let (depth, mask, normals) = shape_geometry(&opts.shape, w, h);
-    let diffuse = opts.material.diffuse();
-    let albedo = GrayImage::from_fn(w, h, |r, c| {
+    let texture = GrayImage::from_fn(w, h, |r, c| {
         if !*mask.get(r, c) {
-            return 0.0;
-        }
-        let tex = if opts.albedo_texture {
+            0.0
+        } else if opts.albedo_texture {
             let (x, y) = pixel_to_xy(r, c, w, h);
             albedo_texture(x, y, w.max(h) as f64, opts.seed) as f32
         } else {
             1.0
-        };
-        diffuse * tex
+        }
     });
+    let diffuse = opts.material.diffuse();
+    let albedo = texture.map(|t| t * diffuse);
     let field = Occluder::new(&opts.shape, w, h);
     let mut stack = ImageStack::zeros(w, h, k);
     stack.names = (1..=k).map(|i| format!("{i:03}.png")).collect();
@@ -39,7 +38,7 @@ pub(super) fn render_scene(opts: &SceneOptions, progress: &dyn Progress) -> Resu
             let mut rng = SplitMix64::for_stream(opts.seed, r as u64);
             for c in 0..w {
                 let px = &mut row[c * k..(c + 1) * k];
-                shadow_row[c] = shade_pixel(opts, &field, (r, c), &normals, &albedo, px);
+                shadow_row[c] = shade_pixel(opts, &field, (r, c), &normals, &texture, px);
                 finish_pixel(opts, px, &mut rng);
             }
             progress.advance(1);
@@ -62,7 +61,7 @@ fn shade_pixel(
     field: &Occluder,
     (r, c): (usize, usize),
     normals: &crate::image::NormalMap,
-    albedo: &GrayImage,
+    texture: &GrayImage,
     px: &mut [f32],
 ) -> u16 {
     let n = *normals.get(r, c);
@@ -70,7 +69,7 @@ fn shade_pixel(
         px.fill(opts.background);
         return 0;
     }
-    let (material, tex) = (&opts.material, albedo_multiplier(opts, albedo, r, c));
+    let (material, tex) = (&opts.material, *texture.get(r, c));
     let cast = opts.cast_shadows && !opts.shape.casts_no_shadow();
     let mut count = 0u16;
     for (i, v) in px.iter_mut().enumerate() {
@@ -84,19 +83,6 @@ fn shade_pixel(
         };
     }
     count
-}
-
-/// The texture factor at (r, c) (the albedo map divided by the diffuse coefficient).
-fn albedo_multiplier(opts: &SceneOptions, albedo: &GrayImage, r: usize, c: usize) -> f32 {
-    let d = opts.material.diffuse();
-    if !opts.albedo_texture {
-        1.0
-    } else if d > 0.0 {
-        albedo.get(r, c) / d
-    } else {
-        let (x, y) = pixel_to_xy(r, c, opts.width, opts.height);
-        albedo_texture(x, y, opts.width.max(opts.height) as f64, opts.seed) as f32
-    }
 }
 
 /// Noise and quantisation of one pixel's K samples.
