@@ -1,0 +1,392 @@
+//! Calibration sphere: its occluding circle, found in the images, and the analytic
+//! normal of each of its pixels.
+//!
+//! Circle coordinates are continuous image coordinates: pixel (row r, col c) covers
+//! [c, c+1) × [r, r+1), so its centre is at (c + 0.5, r + 0.5). `cx` runs along columns
+//! (right), `cy` along rows (down).
+//!
+//! Under orthographic projection the visible hemisphere of a sphere with centre
+//! (cx, cy) and radius R has, at the pixel centre (u, v), the unit normal
+//! n = ((u − cx)/R, −(v − cy)/R, √(1 − n_x² − n_y²)) — y flips because rows grow downward.
+//!
+//! # Detection ([`detect`])
+//!
+//! 1. The per-pixel **maximum over the K images**: every part of the sphere facing
+//!    some light is bright in it, so attached shadows of single images do not cut
+//!    into the silhouette.
+//! 2. **Otsu's threshold** on it (inside `region` / `mask`), the **largest
+//!    8-connected component**, holes filled.
+//! 3. **Sub-pixel edge points**: along the image gradient at each boundary pixel,
+//!    the crossing of the line halfway between straight lines fitted to the outer
+//!    and inner parts of the profile (module `edges`).
+//! 4. A **robust circle fit** ([`fit`]): RANSAC over point triples, the Kåsa algebraic
+//!    fit on the inliers and a Gauss–Newton refinement of the orthogonal distances.
+//! 5. **Sanity checks** against non-spheres: enough inliers, the filled component
+//!    covers the fitted disk, the circle lies inside the image.
+//!
+//! With [`DetectOptions::mask_outline`] steps 1–2 use a given silhouette mask instead
+//! of the images (for spheres whose rim does not show, such as a chrome sphere on a
+//! dark background).
+//!
+//! References: N. Otsu, "A threshold selection method from gray-level histograms",
+//! IEEE SMC 1979; I. Kåsa, "A circle fitting procedure and its error analysis",
+//! IEEE TIM 1976; N. Chernov, *Circular and Linear Regression*, CRC 2010.
+
+mod edges;
+pub mod fit;
+mod overlay;
+
+pub use overlay::overlay;
+
+use crate::error::{Error, Result};
+use crate::image::{GrayImage, ImageStack, Mask};
+use fit::{fit_robust, FitOptions};
+
+/// A circle in continuous image coordinates (pixels).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Circle {
+    /// Centre, along columns (pixels, right).
+    pub cx: f64,
+    /// Centre, along rows (pixels, down).
+    pub cy: f64,
+    /// Radius in pixels.
+    pub radius: f64,
+}
+
+impl Circle {
+    /// Analytic unit normal of the sphere at the centre of pixel (row, col), or `None`
+    /// outside the circle shrunk by `rim` pixels (grazing normals and mixed pixels).
+    pub fn normal_at(&self, row: usize, col: usize, rim: f64) -> Option<[f32; 3]> {
+        let nx = (col as f64 + 0.5 - self.cx) / self.radius;
+        let ny = -(row as f64 + 0.5 - self.cy) / self.radius;
+        let rho2 = nx * nx + ny * ny;
+        let inner = ((self.radius - rim) / self.radius).max(0.0);
+        if rho2 >= inner * inner {
+            return None;
+        }
+        Some([nx as f32, ny as f32, (1.0 - rho2).sqrt() as f32])
+    }
+}
+
+impl Circle {
+    /// Error unless the circle lies inside a `width` × `height` image (half a pixel
+    /// of slack for rounding).
+    pub fn check_inside(&self, width: usize, height: usize, what: &str) -> Result<()> {
+        const SLACK: f64 = 0.5;
+        let ok = self.radius.is_finite()
+            && self.radius > 0.0
+            && self.cx - self.radius >= -SLACK
+            && self.cy - self.radius >= -SLACK
+            && self.cx + self.radius <= width as f64 + SLACK
+            && self.cy + self.radius <= height as f64 + SLACK;
+        if ok {
+            return Ok(());
+        }
+        Err(Error::invalid(
+            format!(
+                "{what}: circle cx={:.2}, cy={:.2}, r={:.2} does not lie inside the {width}x{height} image",
+                self.cx, self.cy, self.radius
+            ),
+            "the whole sphere must be visible: check --circle cx,cy,r (pixels, x along columns, y along rows) or reframe the sphere",
+        ))
+    }
+}
+
+/// Settings of [`detect`].
+#[derive(Clone, Debug)]
+pub struct DetectOptions {
+    /// Use this circle instead of detecting one (only checked to lie inside the image).
+    pub circle: Option<Circle>,
+    /// Search only inside this window `(x, y, w, h)`: column, row of its top-left
+    /// pixel, width and height, in pixels. For a sphere sharing the images with the target.
+    pub region: Option<(usize, usize, usize, usize)>,
+    /// Search only inside this mask (same size as the images).
+    pub mask: Option<Mask>,
+    /// The mask *is* the sphere's silhouette (e.g. drawn by hand, as for a dark mirror
+    /// sphere on a dark background, whose rim barely shows in the images): fit the
+    /// circle to the mask's outline instead of the images. Needs `mask`.
+    pub mask_outline: bool,
+    /// RANSAC triples drawn by the circle fit (0 = no RANSAC).
+    pub ransac_iterations: usize,
+    /// Edge points farther than this from the circle are outliers (pixels).
+    pub inlier_tol_px: f64,
+    /// Fewer inliers than this fraction of the edge points → no sphere.
+    pub min_inlier_fraction: f64,
+    /// Largest accepted |component area / (π r²) − 1|: the bright blob must fill the disk.
+    pub max_area_error: f64,
+}
+
+impl Default for DetectOptions {
+    fn default() -> Self {
+        DetectOptions {
+            circle: None,
+            region: None,
+            mask: None,
+            mask_outline: false,
+            ransac_iterations: 500,
+            inlier_tol_px: 1.0,
+            min_inlier_fraction: 0.5,
+            max_area_error: 0.25,
+        }
+    }
+}
+
+/// Result of [`detect`], with the figures that say how much to trust it.
+#[derive(Clone, Debug)]
+pub struct Detection {
+    /// The sphere's occluding circle (image coordinates, pixels).
+    pub circle: Circle,
+    /// RMS distance of the inlier edge points to the circle (pixels; 0 for an override).
+    pub rms_residual_px: f64,
+    /// Edge points used in the final fit.
+    pub inliers: usize,
+    /// Sub-pixel edge points found.
+    pub edge_points: usize,
+    /// Per-pixel maximum over the K images (for [`overlay`]).
+    pub max_image: GrayImage,
+}
+
+/// Find the calibration sphere's circle in a stack of K images (see the module docs).
+///
+/// Errors: [`Error::SphereNotFound`] when no disk-shaped bright blob is found;
+/// [`Error::InvalidInput`] for an empty stack, a region or circle outside the image;
+/// [`Error::SizeMismatch`] for a mask of another size.
+pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
+    if stack.k == 0 || stack.pixels() == 0 {
+        return Err(Error::invalid(
+            "calibration images",
+            "the sphere stack is empty: give at least one image",
+        ));
+    }
+    let (w, h) = (stack.width, stack.height);
+    let max_image = stack.max_image();
+    if let Some(c) = opts.circle {
+        c.check_inside(w, h, "--circle")?;
+        return Ok(Detection {
+            circle: c,
+            rms_residual_px: 0.0,
+            inliers: 0,
+            edge_points: 0,
+            max_image,
+        });
+    }
+    let (x0, y0, rw, rh) = check_region(opts.region, w, h)?;
+    if let Some(m) = &opts.mask {
+        m.check_size(w, h, "sphere mask")?;
+    }
+    let win = (x0, y0, rw, rh);
+    let crop = match (&opts.mask, opts.mask_outline) {
+        (Some(m), true) => Crop::new(&m.map(|&b| if b { 1.0 } else { 0.0 }), None, win)?,
+        (None, true) => {
+            return Err(Error::invalid(
+                "sphere detection from the mask outline",
+                "no mask was given: pass the sphere's mask (--mask FILE)",
+            ))
+        }
+        (mask, false) => Crop::new(&max_image, mask.as_ref(), win)?,
+    };
+    let points = crop.edge_points()?;
+    let fit_opts = FitOptions {
+        ransac_iterations: opts.ransac_iterations,
+        inlier_tol_px: opts.inlier_tol_px,
+        ..FitOptions::default()
+    };
+    let fit = fit_robust(&points, &fit_opts)?;
+    let inliers = fit.inlier_count();
+    let mut circle = fit.circle;
+    circle.cx += x0 as f64;
+    circle.cy += y0 as f64;
+    circle.check_inside(w, h, "detected sphere")?;
+    check_plausible(&fit, points.len(), crop.area, opts)?;
+    Ok(Detection {
+        circle,
+        rms_residual_px: fit.rms_residual_px,
+        inliers,
+        edge_points: points.len(),
+        max_image,
+    })
+}
+
+fn not_found(reason: String) -> Error {
+    Error::SphereNotFound {
+        what: "the maximum of the calibration images".into(),
+        reason,
+        fix: "check that the images show one bright sphere on a darker background, restrict the search with --sphere-region x,y,w,h or --mask, or give the circle with --circle cx,cy,r".into(),
+    }
+}
+
+fn check_region(
+    region: Option<(usize, usize, usize, usize)>,
+    w: usize,
+    h: usize,
+) -> Result<(usize, usize, usize, usize)> {
+    let Some((x, y, rw, rh)) = region else {
+        return Ok((0, 0, w, h));
+    };
+    if rw < 8 || rh < 8 || x + rw > w || y + rh > h {
+        return Err(Error::invalid(
+            format!("sphere region x={x}, y={y}, w={rw}, h={rh}"),
+            format!("the region must be at least 8x8 pixels and lie inside the {w}x{h} image"),
+        ));
+    }
+    Ok((x, y, rw, rh))
+}
+
+fn check_plausible(
+    fit: &fit::CircleFit,
+    points: usize,
+    area: usize,
+    opts: &DetectOptions,
+) -> Result<()> {
+    let inliers = fit.inlier_count();
+    let frac = inliers as f64 / points.max(1) as f64;
+    if frac < opts.min_inlier_fraction {
+        return Err(not_found(format!(
+            "only {inliers} of {points} edge points ({:.0}%) lie on one circle",
+            100.0 * frac
+        )));
+    }
+    let disk = std::f64::consts::PI * fit.circle.radius.powi(2);
+    let area_error = area as f64 / disk - 1.0;
+    if area_error.abs() > opts.max_area_error {
+        return Err(not_found(format!(
+            "the bright blob ({area} pixels) does not fill the fitted circle (r = {:.1} px, {:.0} pixels)",
+            fit.circle.radius, disk
+        )));
+    }
+    Ok(())
+}
+
+/// The search window of the maximum image, thresholded.
+struct Crop {
+    width: usize,
+    height: usize,
+    values: Vec<f32>,
+    component: Vec<bool>,
+    area: usize,
+    /// Smallest inner − outer plateau difference accepted as an edge.
+    min_step: f64,
+}
+
+impl Crop {
+    fn new(
+        max_image: &GrayImage,
+        mask: Option<&Mask>,
+        win: (usize, usize, usize, usize),
+    ) -> Result<Self> {
+        let (x0, y0, width, height) = win;
+        let mut values = Vec::with_capacity(width * height);
+        let mut keep = Vec::with_capacity(width * height);
+        for r in y0..y0 + height {
+            for c in x0..x0 + width {
+                let v = *max_image.get(r, c);
+                keep.push(v.is_finite() && mask.is_none_or(|m| *m.get(r, c)));
+                values.push(v);
+            }
+        }
+        let kept = || {
+            values
+                .iter()
+                .zip(&keep)
+                .filter(|(_, &k)| k)
+                .map(|(v, _)| *v)
+        };
+        let lo = kept().fold(f32::INFINITY, f32::min);
+        let hi = kept().fold(f32::NEG_INFINITY, f32::max);
+        if hi.is_nan() || lo.is_nan() || hi - lo <= 1e-6 * hi.abs().max(1e-3) {
+            return Err(not_found(format!(
+                "the maximum image is uniform (values {lo} to {hi})"
+            )));
+        }
+        for (v, k) in values.iter_mut().zip(&keep) {
+            if !*k {
+                *v = lo;
+            }
+        }
+        let t = edges::otsu(&values, &keep, lo, hi);
+        let fg: Vec<bool> = values
+            .iter()
+            .zip(&keep)
+            .map(|(v, k)| *k && *v > t)
+            .collect();
+        let component = edges::largest_component(&fg, width, height);
+        let area = component.iter().filter(|&&b| b).count();
+        let mean = |inside: bool| {
+            let (s, n) = values
+                .iter()
+                .zip(&component)
+                .filter(|(_, &b)| b == inside)
+                .fold((0.0f64, 0usize), |(s, n), (v, _)| (s + *v as f64, n + 1));
+            s / n.max(1) as f64
+        };
+        let min_step = 0.2 * (mean(true) - mean(false));
+        Ok(Crop {
+            width,
+            height,
+            values,
+            component,
+            area,
+            min_step,
+        })
+    }
+
+    /// Sub-pixel edge points of the component (crop coordinates).
+    fn edge_points(&self) -> Result<Vec<[f64; 2]>> {
+        const MIN_AREA: usize = 30;
+        if self.area < MIN_AREA {
+            return Err(not_found(format!(
+                "the largest bright blob has only {} pixels",
+                self.area
+            )));
+        }
+        let (mut sx, mut sy) = (0.0, 0.0);
+        for (i, _) in self.component.iter().enumerate().filter(|(_, &b)| b) {
+            sx += (i % self.width) as f64 + 0.5;
+            sy += (i / self.width) as f64 + 0.5;
+        }
+        let centroid = (sx / self.area as f64, sy / self.area as f64);
+        let view = edges::View {
+            width: self.width,
+            height: self.height,
+            data: &self.values,
+        };
+        let points: Vec<[f64; 2]> =
+            edges::boundary_pixels(&self.component, self.width, self.height)
+                .into_iter()
+                .filter_map(|(r, c)| edges::subpixel_edge(&view, r, c, centroid, self.min_step))
+                .collect();
+        if points.len() < 12 {
+            return Err(not_found(format!(
+                "only {} sub-pixel edge points on the largest bright blob",
+                points.len()
+            )));
+        }
+        Ok(points)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normal_points_out_of_the_sphere_in_camera_frame() {
+        let c = Circle {
+            cx: 50.0,
+            cy: 50.0,
+            radius: 40.0,
+        };
+        // centre pixel faces the camera
+        let n = c.normal_at(49, 49, 0.0).unwrap();
+        assert!(n[2] > 0.999);
+        // a pixel above the centre (smaller row) faces up (+y)
+        let n = c.normal_at(20, 49, 0.0).unwrap();
+        assert!(n[1] > 0.7 && n[0].abs() < 0.02);
+        // a pixel right of the centre faces right (+x)
+        let n = c.normal_at(49, 80, 0.0).unwrap();
+        assert!(n[0] > 0.7);
+        // outside, and inside the skipped rim
+        assert!(c.normal_at(49, 95, 0.0).is_none());
+        assert!(c.normal_at(49, 88, 2.0).is_none());
+    }
+}

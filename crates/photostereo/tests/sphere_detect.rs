@@ -1,0 +1,298 @@
+//! Sphere detection against known circles: noise and attached shadows, a grey
+//! background, outlier blobs, corrupted edge points, bad input, the real chrome sphere.
+
+mod sphere_support;
+
+use photostereo::error::Error;
+use photostereo::image::{Image, ImageStack};
+use photostereo::sphere::fit::{fit_robust, FitOptions};
+use photostereo::sphere::{detect, overlay, Circle, DetectOptions};
+use sphere_support::{add_blobs, render, ring_lights, Rng, Scene};
+
+fn errors(found: &Circle, truth: &Circle) -> (f64, f64) {
+    let centre = ((found.cx - truth.cx).powi(2) + (found.cy - truth.cy).powi(2)).sqrt();
+    (centre, (found.radius - truth.radius).abs())
+}
+
+fn check(name: &str, stack: &ImageStack, truth: &Circle, tol: f64) {
+    let d = detect(stack, &DetectOptions::default()).unwrap();
+    let (ec, er) = errors(&d.circle, truth);
+    println!(
+        "{name}: found ({:.3}, {:.3}, r {:.3}) truth ({:.3}, {:.3}, r {:.3}); centre error {ec:.3} px, radius error {er:.3} px, rms {:.3} px, {}/{} inliers",
+        d.circle.cx, d.circle.cy, d.circle.radius, truth.cx, truth.cy, truth.radius,
+        d.rms_residual_px, d.inliers, d.edge_points
+    );
+    assert!(
+        ec < tol && er < tol,
+        "{name}: centre error {ec:.3} px, radius error {er:.3} px (tolerance {tol} px)"
+    );
+}
+
+#[test]
+fn noisy_sphere_with_attached_shadows_within_0_3_px() {
+    // 8 lights 50° off axis: every single image has a large attached shadow.
+    let scene = Scene {
+        lights: ring_lights(8, 50.0),
+        noise_sigma: 0.01,
+        ..Scene::default()
+    };
+    check("noise+shadows", &render(&scene), &scene.circle, 0.3);
+}
+
+#[test]
+fn grey_background_within_0_3_px() {
+    let scene = Scene {
+        background: 0.35,
+        noise_sigma: 0.01,
+        ..Scene::default()
+    };
+    check("grey background", &render(&scene), &scene.circle, 0.3);
+}
+
+#[test]
+fn large_sphere_within_0_3_px() {
+    let scene = Scene {
+        width: 320,
+        height: 300,
+        circle: Circle {
+            cx: 161.6,
+            cy: 148.2,
+            radius: 118.7,
+        },
+        noise_sigma: 0.02,
+        ..Scene::default()
+    };
+    check("large sphere", &render(&scene), &scene.circle, 0.3);
+}
+
+#[test]
+fn bright_blobs_touching_the_edge_within_1_px() {
+    let scene = Scene {
+        noise_sigma: 0.01,
+        ..Scene::default()
+    };
+    let mut stack = render(&scene);
+    let c = scene.circle;
+    let blobs: Vec<(f64, f64)> = [0.4f64, 2.0, 4.1]
+        .iter()
+        .map(|a| {
+            (
+                c.cx + (c.radius + 3.0) * a.cos(),
+                c.cy + (c.radius + 3.0) * a.sin(),
+            )
+        })
+        .collect();
+    add_blobs(&mut stack, &blobs, 5.0, 0.9);
+    check("blobs on the edge", &stack, &c, 1.0);
+}
+
+#[test]
+fn fitter_with_5_percent_corrupted_points_within_1_px() {
+    let truth = Circle {
+        cx: 203.4,
+        cy: 151.9,
+        radius: 97.3,
+    };
+    let mut rng = Rng(3);
+    let n = 600;
+    let mut pts: Vec<[f64; 2]> = (0..n)
+        .map(|i| {
+            let t = i as f64 / n as f64 * std::f64::consts::TAU;
+            let r = truth.radius + 0.1 * rng.gauss() as f64;
+            [truth.cx + r * t.cos(), truth.cy + r * t.sin()]
+        })
+        .collect();
+    // 5% of the points thrown anywhere within 40 px of the rim
+    for i in (0..n).step_by(20) {
+        let t = rng.next_f64() * std::f64::consts::TAU;
+        let r = truth.radius + 5.0 + 35.0 * rng.next_f64();
+        let sign = if rng.next_f64() < 0.5 { -1.0 } else { 1.0 };
+        let r = if sign < 0.0 {
+            truth.radius - (r - truth.radius)
+        } else {
+            r
+        };
+        pts[i] = [truth.cx + r * t.cos(), truth.cy + r * t.sin()];
+    }
+    let fit = fit_robust(&pts, &FitOptions::default()).unwrap();
+    let (ec, er) = errors(&fit.circle, &truth);
+    let plain = photostereo::sphere::fit::fit_algebraic(&pts).unwrap();
+    let (pc, pr) = errors(&plain, &truth);
+    println!("corrupted 5%: robust centre {ec:.3} px radius {er:.3} px; plain Kåsa centre {pc:.3} px radius {pr:.3} px");
+    assert!(ec < 1.0 && er < 1.0);
+    assert_eq!(fit.inlier_count(), n - n / 20);
+}
+
+#[test]
+fn override_circle_is_checked_against_the_image() {
+    let stack = render(&Scene::default());
+    let inside = Circle {
+        cx: 80.0,
+        cy: 70.0,
+        radius: 50.0,
+    };
+    let opts = DetectOptions {
+        circle: Some(inside),
+        ..DetectOptions::default()
+    };
+    assert_eq!(detect(&stack, &opts).unwrap().circle, inside);
+    let outside = Circle {
+        cx: 140.0,
+        cy: 70.0,
+        radius: 50.0,
+    };
+    let opts = DetectOptions {
+        circle: Some(outside),
+        ..DetectOptions::default()
+    };
+    let err = detect(&stack, &opts).unwrap_err();
+    assert!(matches!(err, Error::InvalidInput { .. }), "{err}");
+    assert!(err.to_string().contains("inside"), "{err}");
+}
+
+#[test]
+fn sphere_cut_by_the_border_is_an_error() {
+    let scene = Scene {
+        circle: Circle {
+            cx: 140.0,
+            cy: 70.0,
+            radius: 50.0,
+        },
+        ..Scene::default()
+    };
+    let err = detect(&render(&scene), &DetectOptions::default()).unwrap_err();
+    println!("{err}");
+    assert!(
+        matches!(
+            err,
+            Error::InvalidInput { .. } | Error::SphereNotFound { .. }
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn black_images_have_no_sphere() {
+    let stack = ImageStack::zeros(64, 48, 4);
+    let err = detect(&stack, &DetectOptions::default()).unwrap_err();
+    println!("{err}");
+    assert!(matches!(err, Error::SphereNotFound { .. }));
+    assert!(err.to_string().contains("--circle cx,cy,r"));
+}
+
+#[test]
+fn uniform_noise_has_no_sphere() {
+    let mut rng = Rng(11);
+    let images: Vec<_> = (0..4)
+        .map(|_| Image::from_fn(120, 100, |_, _| rng.next_f64() as f32))
+        .collect();
+    let stack = ImageStack::from_images(&images).unwrap();
+    let err = detect(&stack, &DetectOptions::default()).unwrap_err();
+    println!("{err}");
+    assert!(matches!(err, Error::SphereNotFound { .. }), "{err}");
+}
+
+#[test]
+fn region_selects_the_sphere_beside_a_brighter_object() {
+    // a sphere on the left, a bigger bright square on the right: the square wins
+    // the largest-component test unless the region restricts the search.
+    let scene = Scene {
+        width: 260,
+        ..Scene::default()
+    };
+    let mut stack = render(&scene);
+    let k = stack.k;
+    for r in 20..130 {
+        for c in 150..255 {
+            for i in 0..k {
+                stack.data[(r * 260 + c) * k + i] = 0.9;
+            }
+        }
+    }
+    let opts = DetectOptions {
+        region: Some((10, 0, 140, 140)),
+        ..DetectOptions::default()
+    };
+    let d = detect(&stack, &opts).unwrap();
+    let (ec, er) = errors(&d.circle, &scene.circle);
+    println!("region: centre error {ec:.3} px, radius error {er:.3} px");
+    assert!(ec < 0.3 && er < 0.3);
+    let bad = DetectOptions {
+        region: Some((200, 0, 100, 140)),
+        ..DetectOptions::default()
+    };
+    assert!(matches!(
+        detect(&stack, &bad),
+        Err(Error::InvalidInput { .. })
+    ));
+}
+
+#[test]
+fn overlay_marks_the_circle() {
+    let scene = Scene::default();
+    let d = detect(&render(&scene), &DetectOptions::default()).unwrap();
+    let o = overlay(&d.max_image, &d.circle);
+    let red = o.data.iter().filter(|p| **p == [255, 0, 0]).count();
+    let expected = std::f64::consts::TAU * scene.circle.radius;
+    assert!(
+        red as f64 > 0.8 * expected && (red as f64) < 1.6 * expected,
+        "{red} red pixels"
+    );
+    let (r, c) = (scene.circle.cy as usize, scene.circle.cx as usize);
+    assert_eq!(*o.get(r, c), [0, 255, 0]);
+}
+
+/// The real chrome sphere (psmImages): a mirror sphere on a dark background, whose
+/// rim shows only against the lit wall behind its upper half. Image-only detection
+/// is reported (it is expected to fail: the brightest blob is the highlight cluster);
+/// the circle then comes from the dataset's silhouette mask (`mask_outline`), the
+/// overlay is written for a person to check, and the outline must be a clean circle.
+/// Skips when `../shared` is absent.
+#[test]
+fn real_chrome_sphere() {
+    let Some(shared) = sphere_support::shared_dir() else {
+        println!("skipped: ../shared not found");
+        return;
+    };
+    let dir = shared.join("data/real/chrome");
+    let stack = sphere_support::load_png_dir(&dir);
+    match detect(&stack, &DetectOptions::default()) {
+        Ok(d) => println!(
+            "real chrome, from the images: {:?}, rms {:.3} px",
+            d.circle, d.rms_residual_px
+        ),
+        Err(e) => println!("real chrome, from the images: {e}"),
+    }
+    let mask = image::open(dir.join("mask.png")).unwrap().to_luma8();
+    let mask = Image::from_vec(
+        mask.width() as usize,
+        mask.height() as usize,
+        mask.pixels().map(|p| p.0[0] > 127).collect(),
+    )
+    .unwrap();
+    let opts = DetectOptions {
+        mask: Some(mask),
+        mask_outline: true,
+        ..DetectOptions::default()
+    };
+    let d = detect(&stack, &opts).unwrap();
+    let c = d.circle;
+    println!(
+        "real chrome, from the mask outline: cx {:.2}, cy {:.2}, r {:.2}; rms {:.3} px, {}/{} inliers",
+        c.cx, c.cy, c.radius, d.rms_residual_px, d.inliers, d.edge_points
+    );
+    let o = overlay(&d.max_image, &c);
+    let out = std::env::temp_dir().join("photostereo_chrome_overlay.png");
+    let buf: Vec<u8> = o.data.iter().flatten().copied().collect();
+    image::save_buffer(
+        &out,
+        &buf,
+        o.width as u32,
+        o.height as u32,
+        image::ColorType::Rgb8,
+    )
+    .unwrap();
+    println!("overlay written to {}", out.display());
+    assert!(d.rms_residual_px < 0.5, "the mask outline is not a circle");
+    assert!(d.inliers as f64 > 0.95 * d.edge_points as f64);
+}
