@@ -196,8 +196,9 @@ pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
     let mut circle = fit.circle;
     circle.cx += x0 as f64;
     circle.cy += y0 as f64;
+    check_inliers(&fit, points.len(), opts)?;
     circle.check_inside(w, h, "detected sphere")?;
-    check_plausible(&fit, points.len(), crop.area, opts)?;
+    check_area(&fit, crop.area, opts)?;
     Ok(Detection {
         circle,
         rms_residual_px: fit.rms_residual_px,
@@ -232,12 +233,7 @@ fn check_region(
     Ok((x, y, rw, rh))
 }
 
-fn check_plausible(
-    fit: &fit::CircleFit,
-    points: usize,
-    area: usize,
-    opts: &DetectOptions,
-) -> Result<()> {
+fn check_inliers(fit: &fit::CircleFit, points: usize, opts: &DetectOptions) -> Result<()> {
     let inliers = fit.inlier_count();
     let frac = inliers as f64 / points.max(1) as f64;
     if frac < opts.min_inlier_fraction {
@@ -246,6 +242,10 @@ fn check_plausible(
             100.0 * frac
         )));
     }
+    Ok(())
+}
+
+fn check_area(fit: &fit::CircleFit, area: usize, opts: &DetectOptions) -> Result<()> {
     let disk = std::f64::consts::PI * fit.circle.radius.powi(2);
     let area_error = area as f64 / disk - 1.0;
     if area_error.abs() > opts.max_area_error {
