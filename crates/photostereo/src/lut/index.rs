@@ -1,0 +1,403 @@
+//! Search index over the table entries: principal components + a KD-tree.
+//!
+//! The K-dimensional tuples of a sphere lie on a 2-D surface (parameterised by the
+//! normal), so a few principal components hold nearly all of their spread. The index
+//! projects the tuples onto the top `d` components (d ≤ 8, chosen at run time) and
+//! stores them in a KD-tree with small leaf buckets (split on the widest axis at the
+//! median). A query returns the `m` nearest entries in that space; the caller re-ranks
+//! them on the full K-dimensional distance. Queries can be *seeded* with entries known
+//! to be close (e.g. the match of the neighbouring pixel): the seeds tighten the
+//! search radius from the start, while the answer stays the exact m nearest.
+
+/// Largest number of candidates one query returns.
+pub const MAX_CANDIDATES: usize = 16;
+const LEAF: usize = 8;
+
+/// PCA projection + KD-tree over a set of K-dimensional points.
+#[derive(Clone, Debug)]
+pub struct Index {
+    k: usize,
+    d: usize,
+    mean: Vec<f32>,
+    /// d × K projection rows (principal axes).
+    axes: Vec<f32>,
+    /// Projected points in tree order, `d` per point.
+    coords: Vec<f32>,
+    /// Entry id of each point in tree order.
+    ids: Vec<u32>,
+    /// Position in tree order of each entry id (`u32::MAX` when not indexed).
+    slot: Vec<u32>,
+    nodes: Vec<Node>,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Node {
+    Leaf { start: u32, end: u32 },
+    Split { dim: u16, value: f32, right: u32 },
+}
+
+/// The best candidates of a query, nearest first.
+#[derive(Clone, Copy, Debug)]
+pub struct Candidates {
+    /// Squared distances in projected space.
+    pub dist: [f32; MAX_CANDIDATES],
+    /// Entry ids.
+    pub ids: [u32; MAX_CANDIDATES],
+    /// Number of valid candidates.
+    pub len: usize,
+    cap: usize,
+}
+
+impl Candidates {
+    fn new(cap: usize) -> Self {
+        Candidates {
+            dist: [f32::INFINITY; MAX_CANDIDATES],
+            ids: [u32::MAX; MAX_CANDIDATES],
+            len: 0,
+            cap: cap.clamp(1, MAX_CANDIDATES),
+        }
+    }
+
+    #[inline]
+    fn worst(&self) -> f32 {
+        if self.len < self.cap {
+            f32::INFINITY
+        } else {
+            self.dist[self.len - 1]
+        }
+    }
+
+    #[inline]
+    fn push(&mut self, d: f32, id: u32) {
+        if d >= self.worst() || self.ids[..self.len].contains(&id) {
+            return;
+        }
+        let mut i = self.len.min(self.cap - 1);
+        while i > 0 && self.dist[i - 1] > d {
+            self.dist[i] = self.dist[i - 1];
+            self.ids[i] = self.ids[i - 1];
+            i -= 1;
+        }
+        self.dist[i] = d;
+        self.ids[i] = id;
+        self.len = (self.len + 1).min(self.cap);
+    }
+}
+
+impl Index {
+    /// Index `points` (n × k, point-major), keeping only those with `keep[i]`, on the top
+    /// `dims` principal components (`dims` is clamped to 1..=min(k, 8)).
+    pub fn build(points: &[f32], k: usize, keep: &[bool], dims: usize) -> Index {
+        let n = keep.len();
+        let d = dims.clamp(1, k.min(8));
+        let (mean, axes) = principal_axes(points, k, keep, d);
+        let mut ids: Vec<u32> = (0..n as u32).filter(|&i| keep[i as usize]).collect();
+        let mut proj = vec![0.0f32; n * d];
+        for &i in &ids {
+            let i = i as usize;
+            project_into(
+                &points[i * k..(i + 1) * k],
+                &mean,
+                &axes,
+                &mut proj[i * d..(i + 1) * d],
+            );
+        }
+        let mut nodes = Vec::new();
+        build_node(&mut ids, &proj, d, &mut nodes);
+        let mut coords = Vec::with_capacity(ids.len() * d);
+        let mut slot = vec![u32::MAX; n];
+        for (pos, &i) in ids.iter().enumerate() {
+            coords.extend_from_slice(&proj[i as usize * d..(i as usize + 1) * d]);
+            slot[i as usize] = pos as u32;
+        }
+        Index {
+            k,
+            d,
+            mean,
+            axes,
+            coords,
+            ids,
+            slot,
+            nodes,
+        }
+    }
+
+    /// Number of projected dimensions.
+    pub fn dims(&self) -> usize {
+        self.d
+    }
+
+    /// Number of indexed points.
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// True when nothing is indexed.
+    pub fn is_empty(&self) -> bool {
+        self.ids.is_empty()
+    }
+
+    /// Project a K-tuple onto the principal axes (`out` has `dims()` values).
+    #[inline]
+    pub fn project(&self, tuple: &[f32], out: &mut [f32]) {
+        project_into(tuple, &self.mean, &self.axes, out);
+    }
+
+    /// The `m` indexed points nearest to the projected query `q`; `seeds` are entry ids
+    /// tried first (they only speed the search up).
+    pub fn nearest(&self, q: &[f32], m: usize, seeds: &[u32]) -> Candidates {
+        let mut best = Candidates::new(m);
+        for &s in seeds {
+            if let Some(&pos) = self.slot.get(s as usize) {
+                if pos != u32::MAX {
+                    best.push(self.dist_at(pos as usize, q), s);
+                }
+            }
+        }
+        if !self.nodes.is_empty() {
+            self.search(0, q, &mut best);
+        }
+        best
+    }
+
+    #[inline]
+    fn dist_at(&self, pos: usize, q: &[f32]) -> f32 {
+        let p = &self.coords[pos * self.d..(pos + 1) * self.d];
+        p.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum()
+    }
+
+    fn search(&self, node: usize, q: &[f32], best: &mut Candidates) {
+        match self.nodes[node] {
+            Node::Leaf { start, end } => {
+                for pos in start as usize..end as usize {
+                    let dist = self.dist_at(pos, q);
+                    if dist < best.worst() {
+                        best.push(dist, self.ids[pos]);
+                    }
+                }
+            }
+            Node::Split { dim, value, right } => {
+                let diff = q[dim as usize] - value;
+                let (near, far) = if diff < 0.0 {
+                    (node + 1, right as usize)
+                } else {
+                    (right as usize, node + 1)
+                };
+                self.search(near, q, best);
+                if diff * diff < best.worst() {
+                    self.search(far, q, best);
+                }
+            }
+        }
+    }
+
+    /// Dimension of the indexed tuples.
+    pub fn k(&self) -> usize {
+        self.k
+    }
+}
+
+fn project_into(tuple: &[f32], mean: &[f32], axes: &[f32], out: &mut [f32]) {
+    let k = mean.len();
+    for (j, o) in out.iter_mut().enumerate() {
+        let axis = &axes[j * k..(j + 1) * k];
+        *o = tuple
+            .iter()
+            .zip(mean)
+            .zip(axis)
+            .map(|((t, m), a)| (t - m) * a)
+            .sum();
+    }
+}
+
+/// Build the subtree over `ids` (reordered in place); nodes are stored depth-first, the
+/// left child right after its parent.
+fn build_node(ids: &mut [u32], proj: &[f32], d: usize, nodes: &mut Vec<Node>) {
+    build_range(ids, 0, proj, d, nodes);
+}
+
+fn build_range(ids: &mut [u32], offset: usize, proj: &[f32], d: usize, nodes: &mut Vec<Node>) {
+    let me = nodes.len();
+    if ids.len() <= LEAF {
+        nodes.push(Node::Leaf {
+            start: offset as u32,
+            end: (offset + ids.len()) as u32,
+        });
+        return;
+    }
+    // widest dimension
+    let mut dim = 0;
+    let mut widest = -1.0f32;
+    for j in 0..d {
+        let (lo, hi) = ids
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &i| {
+                let v = proj[i as usize * d + j];
+                (lo.min(v), hi.max(v))
+            });
+        if hi - lo > widest {
+            widest = hi - lo;
+            dim = j;
+        }
+    }
+    let mid = ids.len() / 2;
+    ids.select_nth_unstable_by(mid, |&a, &b| {
+        proj[a as usize * d + dim].total_cmp(&proj[b as usize * d + dim])
+    });
+    let value = proj[ids[mid] as usize * d + dim];
+    nodes.push(Node::Split {
+        dim: dim as u16,
+        value,
+        right: 0,
+    });
+    let (left, right) = ids.split_at_mut(mid);
+    build_range(left, offset, proj, d, nodes);
+    let right_index = nodes.len() as u32;
+    if let Node::Split { right: r, .. } = &mut nodes[me] {
+        *r = right_index;
+    }
+    build_range(right, offset + mid, proj, d, nodes);
+}
+
+/// Mean and top-`d` principal axes (d × k, unit rows) of the kept points.
+fn principal_axes(points: &[f32], k: usize, keep: &[bool], d: usize) -> (Vec<f32>, Vec<f32>) {
+    let mut mean = vec![0.0f64; k];
+    let mut count = 0.0f64;
+    for (i, _) in keep.iter().enumerate().filter(|(_, &kp)| kp) {
+        for (m, v) in mean.iter_mut().zip(&points[i * k..(i + 1) * k]) {
+            *m += *v as f64;
+        }
+        count += 1.0;
+    }
+    mean.iter_mut().for_each(|m| *m /= count.max(1.0));
+    let mut cov = vec![0.0f64; k * k];
+    let mut centred = vec![0.0f64; k];
+    for (i, _) in keep.iter().enumerate().filter(|(_, &kp)| kp) {
+        for ((c, v), m) in centred
+            .iter_mut()
+            .zip(&points[i * k..(i + 1) * k])
+            .zip(&mean)
+        {
+            *c = *v as f64 - m;
+        }
+        for a in 0..k {
+            for b in a..k {
+                cov[a * k + b] += centred[a] * centred[b];
+            }
+        }
+    }
+    for a in 0..k {
+        for b in 0..a {
+            cov[a * k + b] = cov[b * k + a];
+        }
+    }
+    let (values, vectors) = jacobi_eigen(cov, k);
+    let mut order: Vec<usize> = (0..k).collect();
+    order.sort_by(|&a, &b| values[b].total_cmp(&values[a]));
+    let mut axes = Vec::with_capacity(d * k);
+    for &j in order.iter().take(d) {
+        axes.extend((0..k).map(|r| vectors[r * k + j] as f32));
+    }
+    (mean.iter().map(|&m| m as f32).collect(), axes)
+}
+
+/// Eigen-decomposition of a symmetric k × k matrix by cyclic Jacobi rotations.
+/// Returns (eigenvalues, eigenvectors as columns of a row-major k × k matrix).
+pub(crate) fn jacobi_eigen(mut a: Vec<f64>, k: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut v = vec![0.0f64; k * k];
+    for i in 0..k {
+        v[i * k + i] = 1.0;
+    }
+    let scale: f64 = a.iter().map(|x| x * x).sum::<f64>().sqrt().max(1e-300);
+    for _sweep in 0..60 {
+        let off: f64 = (0..k)
+            .flat_map(|i| (0..k).filter(move |&j| j != i).map(move |j| (i, j)))
+            .map(|(i, j)| a[i * k + j] * a[i * k + j])
+            .sum::<f64>()
+            .sqrt();
+        if off <= 1e-14 * scale {
+            break;
+        }
+        for p in 0..k {
+            for q in p + 1..k {
+                let apq = a[p * k + q];
+                if apq.abs() <= 1e-300 {
+                    continue;
+                }
+                let theta = (a[q * k + q] - a[p * k + p]) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for r in 0..k {
+                    let (arp, arq) = (a[r * k + p], a[r * k + q]);
+                    a[r * k + p] = c * arp - s * arq;
+                    a[r * k + q] = s * arp + c * arq;
+                }
+                for col in 0..k {
+                    let (apc, aqc) = (a[p * k + col], a[q * k + col]);
+                    a[p * k + col] = c * apc - s * aqc;
+                    a[q * k + col] = s * apc + c * aqc;
+                }
+                for r in 0..k {
+                    let (vrp, vrq) = (v[r * k + p], v[r * k + q]);
+                    v[r * k + p] = c * vrp - s * vrq;
+                    v[r * k + q] = s * vrp + c * vrq;
+                }
+            }
+        }
+    }
+    ((0..k).map(|i| a[i * k + i]).collect(), v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn jacobi_diagonalises_a_symmetric_matrix() {
+        let a = vec![4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 1.0];
+        let (vals, vecs) = jacobi_eigen(a.clone(), 3);
+        for j in 0..3 {
+            for i in 0..3 {
+                let av: f64 = (0..3).map(|m| a[i * 3 + m] * vecs[m * 3 + j]).sum();
+                assert!((av - vals[j] * vecs[i * 3 + j]).abs() < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn kd_tree_returns_the_exact_nearest_points() {
+        // points on a twisted 2-D surface in 5-D, queries off the surface
+        let k = 5;
+        let mut pts = Vec::new();
+        for i in 0..40 {
+            for j in 0..40 {
+                let (u, v) = (i as f32 / 10.0, j as f32 / 10.0);
+                pts.extend_from_slice(&[u, v, (u * v).sin(), u * u - v, (u + 2.0 * v).cos()]);
+            }
+        }
+        let n = pts.len() / k;
+        let idx = Index::build(&pts, k, &vec![true; n], 5);
+        let mut q = vec![0.0; 5];
+        for t in 0..50 {
+            let query = [t as f32 * 0.07, 3.0 - t as f32 * 0.05, 0.3, 1.0, -0.2];
+            idx.project(&query, &mut q);
+            let got = idx.nearest(&q, 3, &[7, 100]);
+            let mut all: Vec<(f32, u32)> = (0..n)
+                .map(|e| {
+                    let p = &pts[e * k..(e + 1) * k];
+                    (
+                        p.iter().zip(&query).map(|(a, b)| (a - b) * (a - b)).sum(),
+                        e as u32,
+                    )
+                })
+                .collect();
+            all.sort_by(|a, b| a.0.total_cmp(&b.0));
+            assert_eq!(got.len, 3);
+            for (c, want) in all.iter().take(3).enumerate() {
+                assert!((got.dist[c] - want.0).abs() < 1e-3 * (1.0 + want.0));
+            }
+        }
+    }
+}

@@ -1,0 +1,265 @@
+//! Calibration-based photometric stereo by lookup table (orientation consistency).
+//!
+//! A sphere of the same material as the target is imaged under the same K lights.
+//! Each of its pixels pairs an intensity tuple I = (I_1 … I_K) with the sphere's
+//! analytic normal there ([`crate::sphere::Circle::normal_at`]), so a target pixel with
+//! tuple t gets the normal whose sphere tuple matches t best — with no reflectance
+//! model at all (Woodham, "Gradient and curvature from the photometric-stereo method,
+//! including local confidence estimation", JOSA A 11(11), 1994; Hertzmann & Seitz,
+//! "Example-based photometric stereo: shape reconstruction with general, varying
+//! BRDFs", IEEE PAMI 27(8), 2005).
+//!
+//! # Method ([`Method::Refined`], the default)
+//!
+//! 1. **Search, not brute force.** The sphere's tuples lie on a 2-D surface in R^K
+//!    (parameterised by the normal). They are projected onto their top principal
+//!    components (`pca_dims`) and put in a KD-tree ([`index`]); the `candidates`
+//!    nearest entries there are re-ranked on the full K-dimensional cost. The match of
+//!    the previous pixel in the row seeds the tree search (neighbouring normals are
+//!    similar), which makes it fast while keeping it exact.
+//! 2. **Beyond the pixel grid.** The cost ‖t − c·I(x, y)‖² is minimised over the
+//!    continuous sphere position (x, y) on the bilinear interpolation of the sphere
+//!    images by Gauss–Newton ([`model`]); the normal is the sphere's analytic normal at
+//!    that point: n = ((x − cx)/R, −(y − cy)/R, √(1 − n_x² − n_y²)).
+//! 3. **Albedo.** With `normalize`, c = ⟨t, I⟩/⟨I, I⟩ is fitted (equivalent to matching
+//!    t/‖t‖ against I/‖I‖); c, the albedo of the target relative to the sphere, is
+//!    returned in [`Output::albedo`]. Without it c = 1 (same albedo as the sphere).
+//! 4. **Cast shadows.** A light is dropped when the target is dark there
+//!    (t_i < `shadow_level` · c · peak, peak = the table's brightest sample) while the
+//!    match is clearly lit (p_i > t_i + that level); the match is then redone on the
+//!    remaining lights by an exhaustive coarse-grid search, a pattern descent and
+//!    Gauss–Newton (up to 3 rounds). The number of dropped lights is returned.
+//! 5. **Confidence** = L / (1 + (ρ/ρ₀)²), ρ = RMS residual / RMS target over the lights
+//!    used, ρ₀ = `residual_scale`; L = 1 when at least `min_lit_lights` lights are above
+//!    the dark level, else ≤ 0.25 (too few lit lights: the normal is a guess).
+//!
+//! **Several materials** (Hertzmann & Seitz): with two tables the model is
+//! t ≈ a·I_A(n) + b·I_B(n), a, b ≥ 0, found by a 2-variable non-negative least-squares
+//! fit for each candidate normal, searched exhaustively on a coarse grid of normals and
+//! refined as above; (a, b) are returned in [`Output::weights`].
+//!
+//! The table itself (building, file format) is in [`table`] and [`format`].
+
+pub mod format;
+pub mod index;
+mod model;
+mod search;
+pub mod table;
+
+pub use table::{BuildOptions, Entries, Table, Window};
+
+use crate::error::{Error, Result};
+use crate::image::{GrayImage, Image, ImageStack, Mask, NormalMap};
+use crate::progress::Progress;
+use model::{Model, Scratch};
+use rayon::prelude::*;
+use search::{PixelOut, Solver};
+
+/// How a target tuple is turned into a normal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Tree candidates re-ranked in full K, then n = argmin over the continuous sphere
+    /// position of ‖t − c·I(x, y)‖² (bilinear I, Gauss–Newton), with cast-shadow
+    /// handling (see the module docs).
+    Refined,
+    /// The normal of the single best table entry (re-ranked tree candidates): accuracy
+    /// limited by the sphere's pixel spacing. No shadow handling.
+    Nearest,
+    /// Baseline: the `neighbours` nearest entries in full K (exact KD-tree search),
+    /// n ∝ Σ n_j / d_j with d_j the Euclidean tuple distance. No shadow handling.
+    InverseDistance {
+        /// Number of neighbours averaged (6 in the classic baseline).
+        neighbours: usize,
+    },
+}
+
+/// Options of [`solve`].
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// How tuples become normals. Default [`Method::Refined`].
+    pub method: Method,
+    /// Match brightness-normalised tuples (targets whose albedo differs from the
+    /// sphere's); the albedo ratio is returned. Default false.
+    pub normalize: bool,
+    /// Dark level as a fraction of the match's brightness (c × the table's brightest
+    /// sample): target samples below it count as unlit / shadowed. Default 0.03.
+    pub shadow_level: f32,
+    /// Fewer lit lights than this gives a confidence ≤ 0.25. Default 3.
+    pub min_lit_lights: usize,
+    /// Tree candidates re-ranked in full K (1..=16). Default 4.
+    pub candidates: usize,
+    /// Principal components the tree searches in (1..=8). Default 6.
+    pub pca_dims: usize,
+    /// Gauss–Newton iterations of the sub-pixel refinement. Default 8.
+    pub max_iterations: usize,
+    /// Relative RMS residual at which the confidence drops to 1/2. Default 0.05.
+    pub residual_scale: f32,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            method: Method::Refined,
+            normalize: false,
+            shadow_level: 0.03,
+            min_lit_lights: 3,
+            candidates: 4,
+            pca_dims: 6,
+            max_iterations: 8,
+            residual_scale: 0.05,
+        }
+    }
+}
+
+/// Result of [`solve`]; every image has the target's size, zeros outside the mask.
+#[derive(Clone, Debug)]
+pub struct Output {
+    /// Unit normals inside the mask, [0, 0, 0] outside.
+    pub normals: NormalMap,
+    /// Confidence in [0, 1] (see the module docs); 0 outside the mask.
+    pub confidence: GrayImage,
+    /// RMS match residual per light used, in intensity units.
+    pub residual: GrayImage,
+    /// Albedo of the target relative to the sphere (normalised matching only).
+    pub albedo: Option<GrayImage>,
+    /// Mixture weights (a, b), one image per table (two tables only).
+    pub weights: Option<Vec<GrayImage>>,
+    /// Number of lights dropped as cast-shadowed at each pixel.
+    pub shadowed_lights: Image<u16>,
+    /// Number of lights above the dark level at each pixel.
+    pub lit_lights: Image<u16>,
+    /// Summary figures.
+    pub stats: Stats,
+}
+
+/// Summary of a [`solve`] run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Stats {
+    /// Pixels solved (inside the mask).
+    pub pixels: usize,
+    /// Pixels with at least one light dropped as cast-shadowed.
+    pub shadowed_pixels: usize,
+    /// Pixels with confidence below 0.5.
+    pub low_confidence_pixels: usize,
+    /// Mean RMS residual over the mask.
+    pub mean_residual: f64,
+}
+
+/// Estimate the normals of the `mask` pixels of `stack` from one table (or two for a
+/// mixture of materials).
+///
+/// Errors: no table or more than two; a table whose K or image names differ from the
+/// target's ([`Error::TableMismatch`]); K < 3; a mask of another size or empty.
+pub fn solve(
+    stack: &ImageStack,
+    mask: &Mask,
+    tables: &[Table],
+    opts: &Options,
+    progress: &dyn Progress,
+) -> Result<Output> {
+    check_inputs(stack, mask, tables, opts)?;
+    let model = Model::new(tables, opts.normalize);
+    let solver = Solver::new(model, opts);
+    let (w, h, k) = (stack.width, stack.height, stack.k);
+    let mut out = vec![PixelOut::default(); w * h];
+    progress.start("lookup", h as u64);
+    out.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
+        let mut s = Scratch::new(k);
+        let mut q = vec![0.0f32; k + 8];
+        let mut wt = vec![1.0f32; k];
+        let mut t = vec![0.0f32; k];
+        for (c, px) in row.iter_mut().enumerate() {
+            if !*mask.get(r, c) {
+                continue;
+            }
+            for (dst, &v) in t.iter_mut().zip(stack.pixel(r, c)) {
+                *dst = if v.is_finite() { v } else { 0.0 };
+            }
+            *px = solver.pixel(&t, &mut s, &mut q, &mut wt);
+        }
+        progress.advance(1);
+    });
+    progress.finish();
+    Ok(assemble(out, mask, tables.len(), opts.normalize))
+}
+
+fn check_inputs(stack: &ImageStack, mask: &Mask, tables: &[Table], opts: &Options) -> Result<()> {
+    table::check_lights(stack.k, "target images")?;
+    mask.check_size(stack.width, stack.height, "target mask")?;
+    mask.check_not_empty("target mask")?;
+    if tables.is_empty() || tables.len() > 2 {
+        return Err(Error::invalid(
+            format!("{} lookup tables", tables.len()),
+            "give one table, or two for a mixture of two materials",
+        ));
+    }
+    for (i, t) in tables.iter().enumerate() {
+        t.check_target(
+            stack.k,
+            &stack.names,
+            &format!("#{} ('{}')", i + 1, t.material),
+        )?;
+    }
+    if tables.len() == 2 && opts.method != Method::Refined {
+        return Err(Error::invalid(
+            format!("method {:?} with two tables", opts.method),
+            "mixtures of two materials need Method::Refined",
+        ));
+    }
+    if let Method::InverseDistance { neighbours } = opts.method {
+        if neighbours == 0 || neighbours > index::MAX_CANDIDATES {
+            return Err(Error::invalid(
+                format!("{neighbours} neighbours"),
+                format!("use 1 to {} neighbours", index::MAX_CANDIDATES),
+            ));
+        }
+    }
+    if opts.candidates == 0 || opts.candidates > index::MAX_CANDIDATES {
+        return Err(Error::invalid(
+            format!("{} candidates", opts.candidates),
+            format!("use 1 to {} candidates", index::MAX_CANDIDATES),
+        ));
+    }
+    Ok(())
+}
+
+fn assemble(out: Vec<PixelOut>, mask: &Mask, n_tables: usize, normalize: bool) -> Output {
+    let (w, h) = (mask.width, mask.height);
+    let img = |f: &dyn Fn(&PixelOut) -> f32| Image {
+        width: w,
+        height: h,
+        data: out.iter().map(f).collect::<Vec<f32>>(),
+    };
+    let mut stats = Stats::default();
+    for (px, &inside) in out.iter().zip(&mask.data) {
+        if inside {
+            stats.pixels += 1;
+            stats.shadowed_pixels += (px.shadowed > 0) as usize;
+            stats.low_confidence_pixels += (px.confidence < 0.5) as usize;
+            stats.mean_residual += px.residual as f64;
+        }
+    }
+    stats.mean_residual /= stats.pixels.max(1) as f64;
+    Output {
+        normals: Image {
+            width: w,
+            height: h,
+            data: out.iter().map(|p| p.normal).collect(),
+        },
+        confidence: img(&|p| p.confidence),
+        residual: img(&|p| p.residual),
+        albedo: (normalize && n_tables == 1).then(|| img(&|p| p.coef[0])),
+        weights: (n_tables == 2).then(|| vec![img(&|p| p.coef[0]), img(&|p| p.coef[1])]),
+        shadowed_lights: Image {
+            width: w,
+            height: h,
+            data: out.iter().map(|p| p.shadowed).collect(),
+        },
+        lit_lights: Image {
+            width: w,
+            height: h,
+            data: out.iter().map(|p| p.lit).collect(),
+        },
+        stats,
+    }
+}

@@ -1,0 +1,456 @@
+//! The lookup table: the calibration sphere's images around its circle, and one entry
+//! (intensity tuple, analytic normal, pixel) per sphere pixel inside the rim.
+//!
+//! Besides the discrete entries the table keeps the sphere images on a small window
+//! around the circle, so that the intensity field I(x, y) can be evaluated *between*
+//! sphere pixels by bilinear interpolation ([`Table::sample`]). Window pixels that are
+//! not well inside the sphere are padded with the value of the nearest sphere pixel
+//! along the radius, which keeps the interpolation defined (and free of background)
+//! everywhere the solver may look.
+
+use crate::error::{Error, Result};
+use crate::image::ImageStack;
+use crate::sphere::Circle;
+
+/// Options of [`Table::build`].
+#[derive(Clone, Debug)]
+pub struct BuildOptions {
+    /// Width in pixels of the band just inside the occluding circle that is left out of
+    /// the table (grazing normals, pixels mixed with the background). At least 1.0
+    /// and less than half the radius. Default 2.0.
+    pub rim: f64,
+    /// Free-text name of the sphere's material, stored in the table (e.g. "red plastic").
+    pub material: String,
+    /// Standard deviation (pixels) of a Gaussian blur of the sphere images against
+    /// noise; `Some(0.0)` = none. A blur of σ biases the tuples by about σ²/2 · ΔI, so
+    /// it pays only on noisy spheres. `None` (default) chooses it from the noise
+    /// estimated on the sphere ([`estimate_noise`]): none below 0.2% of the brightest
+    /// sample, else 100 × (noise / brightest) pixels, clamped to 0.5–1.5 px.
+    pub smooth: Option<f64>,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions {
+            rim: 2.0,
+            material: String::new(),
+            smooth: None,
+        }
+    }
+}
+
+/// The sphere images on the window around the circle, pixel-major, padded outside the
+/// sphere (see the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Window {
+    /// Column of the window's left edge in the calibration images.
+    pub col0: usize,
+    /// Row of the window's top edge in the calibration images.
+    pub row0: usize,
+    /// The K images on the window; `stack.names` is empty.
+    pub stack: ImageStack,
+}
+
+/// The discrete entries: one per sphere pixel inside the rim, in row-major order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Entries {
+    /// N × K intensity tuples, entry-major (`tuples[e * k + light]`).
+    pub tuples: Vec<f32>,
+    /// Analytic unit normal of each entry (camera frame).
+    pub normals: Vec<[f32; 3]>,
+    /// (row, col) of each entry in the calibration images.
+    pub pixels: Vec<[u32; 2]>,
+}
+
+impl Entries {
+    /// Number of entries.
+    pub fn len(&self) -> usize {
+        self.normals.len()
+    }
+
+    /// True when the table has no entry.
+    pub fn is_empty(&self) -> bool {
+        self.normals.is_empty()
+    }
+}
+
+/// A lookup table intensity tuple → normal built from images of a calibration sphere.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    /// Number of lights (images).
+    pub k: usize,
+    /// Image names in light order (may be empty for in-memory data).
+    pub names: Vec<String>,
+    /// The sphere's occluding circle in the calibration images.
+    pub circle: Circle,
+    /// Free-text material name.
+    pub material: String,
+    /// Rim width (pixels) left out of the entries.
+    pub rim: f64,
+    /// Sphere images around the circle.
+    pub window: Window,
+    /// Discrete entries (tuples, normals, pixels).
+    pub entries: Entries,
+}
+
+/// Smallest number of lights a table accepts.
+pub const MIN_LIGHTS: usize = 3;
+
+impl Table {
+    /// Build the table from the K calibration images and the sphere's circle.
+    ///
+    /// Errors: K < 3 ([`Error::LightCount`]); a circle that leaves the images, a bad rim,
+    /// or a sphere too small to hold a table ([`Error::InvalidInput`]).
+    pub fn build(stack: &ImageStack, circle: &Circle, opts: &BuildOptions) -> Result<Table> {
+        check_lights(stack.k, "calibration images")?;
+        check_circle(circle, stack.width, stack.height)?;
+        let col0 = (circle.cx - circle.radius).floor().max(0.0) as usize;
+        let row0 = (circle.cy - circle.radius).floor().max(0.0) as usize;
+        let col1 = ((circle.cx + circle.radius).ceil() as usize).min(stack.width);
+        let row1 = ((circle.cy + circle.radius).ceil() as usize).min(stack.height);
+        let mut win = ImageStack::zeros(col1 - col0, row1 - row0, stack.k);
+        for r in 0..win.height {
+            for c in 0..win.width {
+                let src = stack.pixel(row0 + r, col0 + c);
+                win.pixel_flat_mut(r * win.width + c).copy_from_slice(src);
+            }
+        }
+        let mut window = Window {
+            col0,
+            row0,
+            stack: win,
+        };
+        let smooth = match opts.smooth {
+            Some(s) => s,
+            None => {
+                let (noise, peak) = estimate_noise(&window, circle, opts.rim);
+                let rel = noise / peak.max(1e-12);
+                if rel < 0.002 {
+                    0.0
+                } else {
+                    (100.0 * rel).clamp(0.5, 1.5) as f64
+                }
+            }
+        };
+        if smooth > 0.0 {
+            if smooth.is_nan() || smooth > 10.0 {
+                return Err(Error::invalid(
+                    format!("smoothing of {smooth} px"),
+                    "use a blur between 0 and 10 px (about 1 px for noisy spheres)",
+                ));
+            }
+            pad_window(&mut window, circle, opts.rim);
+            blur(&mut window.stack, smooth);
+        }
+        Table::from_parts(
+            stack.names.clone(),
+            *circle,
+            opts.material.clone(),
+            opts.rim,
+            window,
+        )
+    }
+
+    /// Assemble a table from its window (pads it and derives the entries). Used by
+    /// [`Table::build`] and when reading a table file.
+    pub(crate) fn from_parts(
+        names: Vec<String>,
+        circle: Circle,
+        material: String,
+        rim: f64,
+        mut window: Window,
+    ) -> Result<Table> {
+        let k = window.stack.k;
+        let shifted = Circle {
+            cx: circle.cx - window.col0 as f64,
+            cy: circle.cy - window.row0 as f64,
+            radius: circle.radius,
+        };
+        check_circle(&shifted, window.stack.width, window.stack.height)?;
+        if !(rim >= 1.0 && rim < circle.radius / 2.0) {
+            return Err(Error::invalid(
+                format!(
+                    "rim of {rim} px on a sphere of radius {:.1} px",
+                    circle.radius
+                ),
+                "use a rim of at least 1 px and less than half the radius (default 2)",
+            ));
+        }
+        pad_window(&mut window, &circle, rim);
+        let mut entries = Entries::default();
+        let ws = &window.stack;
+        for r in 0..ws.height {
+            for c in 0..ws.width {
+                let (row, col) = (window.row0 + r, window.col0 + c);
+                if let Some(n) = circle.normal_at(row, col, rim) {
+                    entries.tuples.extend_from_slice(ws.pixel(r, c));
+                    entries.normals.push(n);
+                    entries.pixels.push([row as u32, col as u32]);
+                }
+            }
+        }
+        if entries.len() < 20 {
+            return Err(Error::invalid(
+                format!(
+                    "sphere of radius {:.1} px with a rim of {rim} px ({} table entries)",
+                    circle.radius,
+                    entries.len()
+                ),
+                "use a larger sphere (radius of 20 px or more) or a smaller rim",
+            ));
+        }
+        Ok(Table {
+            k,
+            names,
+            circle,
+            material,
+            rim,
+            window,
+            entries,
+        })
+    }
+
+    /// Largest distance (pixels) from the circle centre the solver may move to.
+    pub fn search_radius(&self) -> f64 {
+        self.circle.radius - self.rim
+    }
+
+    /// Largest sample of any entry (the table's brightness scale).
+    pub fn peak(&self) -> f32 {
+        self.entries.tuples.iter().copied().fold(0.0, f32::max)
+    }
+
+    /// Window-grid coordinates (gx, gy) of continuous image point (x, y): the grid has
+    /// window pixel (r, c)'s centre at (c, r).
+    #[inline]
+    pub fn to_grid(&self, x: f64, y: f64) -> (f64, f64) {
+        (
+            x - 0.5 - self.window.col0 as f64,
+            y - 0.5 - self.window.row0 as f64,
+        )
+    }
+
+    /// Unit normal of the sphere at window-grid point (gx, gy), clamped to the sphere.
+    #[inline]
+    pub fn grid_normal(&self, gx: f64, gy: f64) -> [f32; 3] {
+        let c = &self.circle;
+        let nx = (gx + 0.5 + self.window.col0 as f64 - c.cx) / c.radius;
+        let ny = -(gy + 0.5 + self.window.row0 as f64 - c.cy) / c.radius;
+        let rho2 = (nx * nx + ny * ny).min(1.0);
+        [nx as f32, ny as f32, (1.0 - rho2).sqrt() as f32]
+    }
+
+    /// Window-grid point of unit normal n (inverse of [`Table::grid_normal`]).
+    #[inline]
+    pub fn normal_to_grid(&self, n: [f32; 3]) -> (f64, f64) {
+        let c = &self.circle;
+        self.to_grid(c.cx + c.radius * n[0] as f64, c.cy - c.radius * n[1] as f64)
+    }
+
+    /// Move grid point (gx, gy) back inside the search disc if it left it.
+    #[inline]
+    pub fn clamp_grid(&self, gx: f64, gy: f64) -> (f64, f64) {
+        let (cgx, cgy) = self.to_grid(self.circle.cx, self.circle.cy);
+        let (dx, dy) = (gx - cgx, gy - cgy);
+        let d = (dx * dx + dy * dy).sqrt();
+        let rmax = self.search_radius();
+        if d > rmax {
+            (cgx + dx * rmax / d, cgy + dy * rmax / d)
+        } else {
+            (gx, gy)
+        }
+    }
+
+    /// Bilinear interpolation of the K sphere images at window-grid point (gx, gy):
+    /// writes I into `value` and, when given, ∂I/∂gx and ∂I/∂gy into `grad`
+    /// (`grad[2 * i]`, `grad[2 * i + 1]`).
+    #[inline]
+    pub fn sample(&self, gx: f64, gy: f64, value: &mut [f32], grad: Option<&mut [f32]>) {
+        let ws = &self.window.stack;
+        let k = self.k;
+        let c0 = (gx.floor().max(0.0) as usize).min(ws.width - 2);
+        let r0 = (gy.floor().max(0.0) as usize).min(ws.height - 2);
+        let a = (gx - c0 as f64) as f32;
+        let b = (gy - r0 as f64) as f32;
+        let top = &ws.data[(r0 * ws.width + c0) * k..(r0 * ws.width + c0 + 2) * k];
+        let bot = &ws.data[((r0 + 1) * ws.width + c0) * k..((r0 + 1) * ws.width + c0 + 2) * k];
+        let (p00, p01) = top.split_at(k);
+        let (p10, p11) = bot.split_at(k);
+        let value = &mut value[..k];
+        match grad {
+            None => {
+                let (w00, w01, w10, w11) =
+                    ((1.0 - a) * (1.0 - b), a * (1.0 - b), (1.0 - a) * b, a * b);
+                for i in 0..k {
+                    value[i] = w00 * p00[i] + w01 * p01[i] + w10 * p10[i] + w11 * p11[i];
+                }
+            }
+            Some(g) => {
+                let g = &mut g[..2 * k];
+                for i in 0..k {
+                    let up = p00[i] + a * (p01[i] - p00[i]);
+                    let down = p10[i] + a * (p11[i] - p10[i]);
+                    value[i] = up + b * (down - up);
+                    g[2 * i] = (1.0 - b) * (p01[i] - p00[i]) + b * (p11[i] - p10[i]);
+                    g[2 * i + 1] = down - up;
+                }
+            }
+        }
+    }
+
+    /// Check that this table fits a target of `k` lights named `names` (names are compared
+    /// only when both sides have them).
+    pub fn check_target(&self, k: usize, names: &[String], what: &str) -> Result<()> {
+        if self.k != k {
+            return Err(Error::TableMismatch {
+                what: what.to_string(),
+                reason: format!(
+                    "the table has {} lights, the target {k}; use a table calibrated under the same lights",
+                    self.k
+                ),
+            });
+        }
+        if !self.names.is_empty() && !names.is_empty() && self.names != names {
+            let first = self
+                .names
+                .iter()
+                .zip(names)
+                .position(|(a, b)| a != b)
+                .unwrap_or(0);
+            return Err(Error::TableMismatch {
+                what: what.to_string(),
+                reason: format!(
+                    "image {} is '{}' in the table but '{}' in the target; the images must be the same lights in the same order",
+                    first + 1,
+                    self.names.get(first).map_or("", |s| s.as_str()),
+                    names.get(first).map_or("", |s| s.as_str()),
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Error unless K ≥ 3.
+pub(crate) fn check_lights(k: usize, what: &str) -> Result<()> {
+    if k < MIN_LIGHTS {
+        return Err(Error::LightCount {
+            what: what.to_string(),
+            expected: MIN_LIGHTS,
+            found: k,
+            fix: "photometric stereo needs at least 3 images under different lights".into(),
+        });
+    }
+    Ok(())
+}
+
+/// Error unless the circle lies inside a `width` x `height` image.
+fn check_circle(c: &Circle, width: usize, height: usize) -> Result<()> {
+    let finite = c.cx.is_finite() && c.cy.is_finite() && c.radius.is_finite();
+    let inside = c.cx - c.radius >= 0.0
+        && c.cy - c.radius >= 0.0
+        && c.cx + c.radius <= width as f64
+        && c.cy + c.radius <= height as f64;
+    if !finite || c.radius <= 0.0 || !inside {
+        return Err(Error::invalid(
+            format!(
+                "sphere circle (cx {:.2}, cy {:.2}, r {:.2}) in {width}x{height} images",
+                c.cx, c.cy, c.radius
+            ),
+            "the whole circle must lie inside the images; check --circle or the sphere region",
+        ));
+    }
+    Ok(())
+}
+
+/// Replace window pixels that are not well inside the sphere (centre farther than
+/// R − rim + 1 from the centre) by the nearest such pixel along the radius.
+fn pad_window(window: &mut Window, circle: &Circle, rim: f64) {
+    let ws = &mut window.stack;
+    let k = ws.k;
+    let support = circle.radius - rim + 1.0;
+    let target = support - 1.5;
+    let (gcx, gcy) = (
+        circle.cx - 0.5 - window.col0 as f64,
+        circle.cy - 0.5 - window.row0 as f64,
+    );
+    for r in 0..ws.height {
+        for c in 0..ws.width {
+            let (dx, dy) = (c as f64 - gcx, r as f64 - gcy);
+            let d = (dx * dx + dy * dy).sqrt();
+            if d < support {
+                continue;
+            }
+            let sc = ((gcx + dx * target / d).round().max(0.0) as usize).min(ws.width - 1);
+            let sr = ((gcy + dy * target / d).round().max(0.0) as usize).min(ws.height - 1);
+            let src = (sr * ws.width + sc) * k;
+            let dst = (r * ws.width + c) * k;
+            ws.data.copy_within(src..src + k, dst);
+        }
+    }
+}
+
+/// Separable Gaussian blur of standard deviation `sigma` pixels (edges clamped).
+fn blur(stack: &mut ImageStack, sigma: f64) {
+    let radius = (3.0 * sigma).ceil() as isize;
+    let kernel: Vec<f32> = (-radius..=radius)
+        .map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32)
+        .collect();
+    let total: f32 = kernel.iter().sum();
+    let kernel: Vec<f32> = kernel.iter().map(|v| v / total).collect();
+    let (w, h, k) = (stack.width as isize, stack.height as isize, stack.k);
+    for horizontal in [true, false] {
+        let src = stack.data.clone();
+        for r in 0..h {
+            for c in 0..w {
+                let dst =
+                    &mut stack.data[((r * w + c) as usize) * k..((r * w + c) as usize + 1) * k];
+                dst.fill(0.0);
+                for (j, kv) in kernel.iter().enumerate() {
+                    let o = j as isize - radius;
+                    let (rr, cc) = if horizontal {
+                        (r, (c + o).clamp(0, w - 1))
+                    } else {
+                        ((r + o).clamp(0, h - 1), c)
+                    };
+                    let s = &src[((rr * w + cc) as usize) * k..((rr * w + cc) as usize + 1) * k];
+                    dst.iter_mut().zip(s).for_each(|(d, v)| *d += kv * v);
+                }
+            }
+        }
+    }
+}
+
+/// Noise of the sphere images, estimated from the residual of each pixel against the
+/// mean of its 4 neighbours (σ ≈ 1.4826 · median |residual| / √1.25) over pixels well
+/// inside the rim; returns (σ, brightest sample) in intensity units.
+pub fn estimate_noise(window: &Window, circle: &Circle, rim: f64) -> (f32, f32) {
+    let ws = &window.stack;
+    let k = ws.k;
+    let inner = circle.radius - rim - 2.0;
+    let (gcx, gcy) = (
+        circle.cx - 0.5 - window.col0 as f64,
+        circle.cy - 0.5 - window.row0 as f64,
+    );
+    let mut res = Vec::new();
+    let mut peak = 0.0f32;
+    for r in 1..ws.height.saturating_sub(1) {
+        for c in 1..ws.width.saturating_sub(1) {
+            if ((c as f64 - gcx).powi(2) + (r as f64 - gcy).powi(2)).sqrt() >= inner {
+                continue;
+            }
+            let (p, u, d) = (ws.pixel(r, c), ws.pixel(r - 1, c), ws.pixel(r + 1, c));
+            let (lf, rt) = (ws.pixel(r, c - 1), ws.pixel(r, c + 1));
+            for i in 0..k {
+                peak = peak.max(p[i]);
+                res.push((p[i] - 0.25 * (u[i] + d[i] + lf[i] + rt[i])).abs());
+            }
+        }
+    }
+    if res.is_empty() {
+        return (0.0, peak);
+    }
+    let mid = res.len() / 2;
+    let (_, median, _) = res.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+    (1.4826 * *median / 1.25f32.sqrt(), peak)
+}

@@ -1,0 +1,331 @@
+//! Lookup-table photometric stereo on analytic scenes (closed-form Blinn–Phong BRDF
+//! evaluated at pixel centres, no renderer): accuracy against the exact normals.
+
+mod lut_support;
+
+use lut_support::*;
+use photostereo::image::ImageStack;
+use photostereo::lut::{self, BuildOptions, Method, Options, Output, Table};
+use photostereo::progress::NoProgress;
+use photostereo::Error;
+
+const SHINY: Brdf = Brdf {
+    kd: 0.6,
+    ks: 0.5,
+    shininess: 40.0,
+};
+const MATTE: Brdf = Brdf {
+    kd: 0.8,
+    ks: 0.0,
+    shininess: 1.0,
+};
+const RADIUS: f64 = 60.0;
+// A broad specular lobe (visible at most normals), the second material of mixtures.
+const GLOSSY: Brdf = Brdf {
+    kd: 0.0,
+    ks: 1.0,
+    shininess: 6.0,
+};
+
+fn table(brdf: Brdf, k: usize, noise: f32) -> Table {
+    table_smooth(brdf, k, noise, None)
+}
+
+fn table_smooth(brdf: Brdf, k: usize, noise: f32, smooth: Option<f64>) -> Table {
+    let (mut sph, circle) = sphere((2.0 * RADIUS) as usize + 8, RADIUS, &lights(k), brdf);
+    if noise > 0.0 {
+        add_noise(&mut sph, noise, 7);
+    }
+    Table::build(
+        &sph,
+        &circle,
+        &BuildOptions {
+            smooth,
+            ..BuildOptions::default()
+        },
+    )
+    .unwrap()
+}
+
+fn solve(
+    target: &ImageStack,
+    mask: &photostereo::Mask,
+    tables: &[Table],
+    opts: &Options,
+) -> Output {
+    lut::solve(target, mask, tables, opts, &NoProgress).unwrap()
+}
+
+fn idw() -> Options {
+    Options {
+        method: Method::InverseDistance { neighbours: 6 },
+        ..Options::default()
+    }
+}
+
+#[test]
+fn refined_lookup_goes_below_the_sphere_pixel_spacing() {
+    // one sphere pixel at the centre of a radius-60 sphere spans ~0.95°
+    for (name, brdf) in [("matte", MATTE), ("shiny", SHINY)] {
+        let t = table(brdf, 12, 0.0);
+        let (target, mask, truth) = bumps(128, &lights(12), brdf, &|_, _| 1.0);
+        let refined = errors(
+            &solve(
+                &target,
+                &mask,
+                std::slice::from_ref(&t),
+                &Options::default(),
+            )
+            .normals,
+            &truth,
+            &mask,
+        );
+        let nearest = Options {
+            method: Method::Nearest,
+            ..Options::default()
+        };
+        let nearest = errors(
+            &solve(&target, &mask, std::slice::from_ref(&t), &nearest).normals,
+            &truth,
+            &mask,
+        );
+        let base = errors(&solve(&target, &mask, &[t], &idw()).normals, &truth, &mask);
+        println!(
+            "{name} clean: refined mean {:.4}° (median {:.4}°); nearest entry {:.3}°; 6-NN inverse distance {:.3}°",
+            refined.0, refined.1, nearest.0, base.0
+        );
+        assert!(
+            refined.0 < 0.05,
+            "{name}: refined mean {:.4}° ≥ 0.05°",
+            refined.0
+        );
+        assert!(refined.0 < base.0 / 3.0);
+    }
+}
+
+#[test]
+fn noisy_shiny_target_stays_accurate() {
+    let (mut target, mask, truth) = bumps(128, &lights(16), SHINY, &|_, _| 1.0);
+    add_noise(&mut target, 0.01, 11);
+    for sm in [Some(0.0), Some(0.7), Some(1.0), Some(1.5), None] {
+        let t = table_smooth(SHINY, 16, 0.01, sm);
+        let e = errors(
+            &solve(&target, &mask, &[t], &Options::default()).normals,
+            &truth,
+            &mask,
+        );
+        let tc = table_smooth(SHINY, 16, 0.0, sm);
+        let (clean_target, _, _) = bumps(128, &lights(16), SHINY, &|_, _| 1.0);
+        let c = errors(
+            &solve(&clean_target, &mask, &[tc], &Options::default()).normals,
+            &truth,
+            &mask,
+        );
+        println!("smooth {sm:?}: noisy {:.3}°  clean {:.3}°", e.0, c.0);
+    }
+    let t = table(SHINY, 16, 0.01);
+    let out = solve(
+        &target,
+        &mask,
+        std::slice::from_ref(&t),
+        &Options::default(),
+    );
+    let refined = errors(&out.normals, &truth, &mask);
+    let base = errors(&solve(&target, &mask, &[t], &idw()).normals, &truth, &mask);
+    println!(
+        "shiny, 1% noise: refined mean {:.3}° (median {:.3}°), 6-NN IDW {:.3}°",
+        refined.0, refined.1, base.0
+    );
+    assert!(refined.0 < 0.8, "mean {:.3}°", refined.0);
+}
+
+#[test]
+fn textured_albedo_with_normalised_matching() {
+    let t = table(SHINY, 12, 0.0);
+    let albedo = |r: usize, c: usize| 0.5 + 0.4 * ((r / 16 + c / 16) % 2) as f32;
+    let brdf = Brdf {
+        kd: SHINY.kd,
+        ks: 0.0,
+        shininess: 1.0,
+    };
+    let tm = table(brdf, 12, 0.0);
+    let (target, mask, truth) = bumps(128, &lights(12), brdf, &albedo);
+    let opts = Options {
+        normalize: true,
+        ..Options::default()
+    };
+    let out = solve(&target, &mask, &[tm], &opts);
+    let (mean, _) = errors(&out.normals, &truth, &mask);
+    let alb = out.albedo.as_ref().expect("albedo with normalize");
+    let worst = (0..mask.data.len())
+        .map(|i| (alb.data[i] - albedo(i / 128, i % 128)).abs())
+        .fold(0.0f32, f32::max);
+    println!("textured matte albedo, normalised: mean {mean:.4}°, worst albedo error {worst:.4}");
+    assert!(mean < 0.5 && worst < 0.01);
+    // raw matching of the same data is much worse (a check that normalisation matters)
+    let raw = errors(
+        &solve(&target, &mask, &[t], &Options::default()).normals,
+        &truth,
+        &mask,
+    );
+    println!("  raw matching against the shiny table: mean {:.3}°", raw.0);
+}
+
+#[test]
+fn cast_shadowed_lights_are_dropped() {
+    let k = 12;
+    let t = table(SHINY, k, 0.0);
+    let (mut target, mask, truth) = bumps(128, &lights(k), SHINY, &|_, _| 1.0);
+    // a cast shadow: lights 0 and 5 blocked over a band of the image
+    let mut band = photostereo::Mask::filled(128, 128, false);
+    for r in 40..80 {
+        for c in 20..100 {
+            let px = target.pixel_flat_mut(r * 128 + c);
+            px[0] = 0.0;
+            px[5] = 0.0;
+            *band.get_mut(r, c) = true;
+        }
+    }
+    let out = solve(
+        &target,
+        &mask,
+        std::slice::from_ref(&t),
+        &Options::default(),
+    );
+    let (mean, _) = errors(&out.normals, &truth, &band);
+    let base = errors(&solve(&target, &mask, &[t], &idw()).normals, &truth, &band);
+    let flagged = (0..band.data.len())
+        .filter(|&i| band.data[i] && out.shadowed_lights.data[i] > 0)
+        .count();
+    println!(
+        "cast shadow band: refined mean {mean:.3}°, 6-NN IDW {:.3}°; {flagged}/{} pixels with dropped lights",
+        base.0,
+        band.count()
+    );
+    assert!(mean < 2.0, "mean {mean:.3}°");
+}
+
+#[test]
+fn mixture_of_two_materials_recovers_normals_and_weights() {
+    let k = 12;
+    let (ta, tb) = (table(MATTE, k, 0.0), table(GLOSSY, k, 0.0));
+    let l = lights(k);
+    let (mut target, mask, truth) = bumps(128, &l, MATTE, &|_, _| 1.0);
+    let weight = |c: usize| c as f32 / 127.0;
+    let mut spec = vec![0.0f32; k];
+    for r in 0..128 {
+        for c in 0..128 {
+            let i = r * 128 + c;
+            shade(truth.data[i], &l, GLOSSY, 1.0, &mut spec);
+            let a = 1.0 - 0.5 * weight(c);
+            let b = 0.2 + 0.6 * weight(c);
+            for (v, s) in target.pixel_flat_mut(i).iter_mut().zip(&spec) {
+                *v = a * *v + b * s;
+            }
+        }
+    }
+    let out = solve(&target, &mask, &[ta, tb], &Options::default());
+    let (mean, median) = errors(&out.normals, &truth, &mask);
+    let w = out.weights.as_ref().expect("weights");
+    // b is only observable where the specular reference is not dark: judge the worst
+    // case where the specular part carries at least 20% of the signal
+    let (mut worst, mut sum, mut observable) = (0.0f32, 0.0f64, 0usize);
+    for i in 0..mask.data.len() {
+        let c = i % 128;
+        let (a, b) = (1.0 - 0.5 * weight(c), 0.2 + 0.6 * weight(c));
+        let e = (w[0].data[i] - a).abs().max((w[1].data[i] - b).abs());
+        sum += e as f64;
+        shade(truth.data[i], &l, GLOSSY, 1.0, &mut spec);
+        let s_norm = spec.iter().map(|v| v * v).sum::<f32>().sqrt() * b;
+        let t_norm = target
+            .pixel_flat(i)
+            .iter()
+            .map(|v| v * v)
+            .sum::<f32>()
+            .sqrt();
+        if s_norm >= 0.2 * t_norm {
+            worst = worst.max(e);
+            observable += 1;
+        }
+    }
+    let mean_w = sum / mask.data.len() as f64;
+    println!(
+        "mixture: mean {mean:.3}° (median {median:.3}°), mean weight error {mean_w:.4}, worst {worst:.4} on {observable} pixels with a visible specular part"
+    );
+    assert!(mean < 1.0 && mean_w < 0.05 && worst < 0.05);
+}
+
+#[test]
+fn every_mask_pixel_gets_a_unit_normal_even_when_dark() {
+    let t = table(SHINY, 8, 0.0);
+    let (mut target, mask, _) = bumps(64, &lights(8), SHINY, &|_, _| 1.0);
+    for i in 0..64 {
+        target.pixel_flat_mut(i).fill(0.0); // first row: no light at all
+    }
+    target.pixel_flat_mut(100)[3] = f32::NAN;
+    let out = solve(&target, &mask, &[t], &Options::default());
+    for i in 0..mask.data.len() {
+        let n = out.normals.data[i];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        assert!((len - 1.0).abs() < 1e-4, "pixel {i}: {n:?}");
+        assert!(
+            out.confidence.data[i].is_finite() && (0.0..=1.0).contains(&out.confidence.data[i])
+        );
+    }
+    assert!(
+        out.confidence.data[..64].iter().all(|&c| c < 0.25),
+        "unlit pixels must get low confidence"
+    );
+    assert!(out.confidence.data[64 * 40 + 30] > 0.5);
+}
+
+#[test]
+fn table_file_round_trips_and_rejects_damage() {
+    let mut t = table(SHINY, 6, 0.0);
+    t.names = (0..6).map(|i| format!("img{i}.png")).collect();
+    t.material = "test plastic".into();
+    let bytes = t.to_bytes();
+    assert_eq!(Table::from_bytes(&bytes).unwrap(), t);
+    assert!(matches!(
+        Table::from_bytes(&bytes[..bytes.len() - 4]),
+        Err(Error::InvalidInput { .. })
+    ));
+    assert!(matches!(
+        Table::from_bytes(b"not a table at all"),
+        Err(Error::InvalidInput { .. })
+    ));
+}
+
+#[test]
+fn bad_inputs_are_clear_errors() {
+    let (sph, circle) = sphere(40, 15.0, &lights(2), MATTE);
+    assert!(matches!(
+        Table::build(&sph, &circle, &BuildOptions::default()),
+        Err(Error::LightCount { found: 2, .. })
+    ));
+    let (sph, mut circle) = sphere(40, 15.0, &lights(4), MATTE);
+    circle.cx = 35.0;
+    assert!(matches!(
+        Table::build(&sph, &circle, &BuildOptions::default()),
+        Err(Error::InvalidInput { .. })
+    ));
+
+    let mut t = table(MATTE, 6, 0.0);
+    let (mut target, mask, _) = bumps(32, &lights(5), MATTE, &|_, _| 1.0);
+    let err = lut::solve(
+        &target,
+        &mask,
+        std::slice::from_ref(&t),
+        &Options::default(),
+        &NoProgress,
+    )
+    .unwrap_err();
+    assert!(matches!(err, Error::TableMismatch { .. }), "{err}");
+    let (t6, m6, _) = bumps(32, &lights(6), MATTE, &|_, _| 1.0);
+    target = t6;
+    t.names = (0..6).map(|i| format!("l{i}.png")).collect();
+    target.names = (0..6).map(|i| format!("l{}.png", (i + 1) % 6)).collect();
+    let err = lut::solve(&target, &m6, &[t], &Options::default(), &NoProgress).unwrap_err();
+    println!("{err}");
+    assert!(matches!(err, Error::TableMismatch { .. }));
+}
