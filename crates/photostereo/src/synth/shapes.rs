@@ -295,26 +295,6 @@ impl Shape {
         }
     }
 
-    /// A cheap upper bound of [`Shape::height`]: for the vase, the body plus every
-    /// positive bump amplitude (no exponentials); the exact height otherwise.
-    pub fn height_bound(&self, x: f64, y: f64) -> f64 {
-        match self {
-            Shape::Vase {
-                rx,
-                ry,
-                height,
-                bumps,
-            } => {
-                let u = 1.0 - (x / rx).powi(2) - (y / ry).powi(2);
-                if u <= 0.0 {
-                    return f64::NEG_INFINITY;
-                }
-                height * u.sqrt() + bumps.iter().map(|b| b.amplitude.max(0.0)).sum::<f64>()
-            }
-            _ => self.height(x, y),
-        }
-    }
-
     /// True when z is a concave function (a convex bump): such a surface cannot cast a
     /// shadow on itself — a ray leaving a lit point stays above its tangent plane, which
     /// lies above the whole surface — so shadow rays can be skipped.
