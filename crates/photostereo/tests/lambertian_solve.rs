@@ -60,7 +60,6 @@ fn lambertian_blob_is_exact_with_shadow_rejection() {
     println!("largest albedo error: {worst:.2e}");
     assert!(worst < 1e-3);
 }
-}
 
 #[test]
 fn shiny_target_outlier_rejection_halves_the_error() {
