@@ -296,3 +296,43 @@ fn real_chrome_sphere() {
     assert!(d.rms_residual_px < 0.5, "the mask outline is not a circle");
     assert!(d.inliers as f64 > 0.95 * d.edge_points as f64);
 }
+
+/// The same targets on `synth` renders (point-sampled pixel centres, so a staircase
+/// silhouette): a noisy sphere under the default lights (15°–60°, attached shadows in
+/// every image), the same on a grey background, and a shiny GGX sphere.
+#[test]
+fn synth_spheres_within_0_3_px() {
+    use photostereo::synth::{default_lights, render_calibration_sphere, Material, SceneOptions};
+    let radius = 60.3;
+    let cases = [
+        ("synth Lambertian, 1% noise", Material::lambertian(0.8), 0.0),
+        (
+            "synth Lambertian, grey background",
+            Material::lambertian(0.8),
+            0.3,
+        ),
+        (
+            "synth shiny plastic, grey background",
+            Material::shiny_plastic(),
+            0.3,
+        ),
+    ];
+    for (name, material, background) in cases {
+        let opts = SceneOptions {
+            material,
+            lights: default_lights(12),
+            noise_sigma: 0.01,
+            background,
+            seed: 5,
+            ..SceneOptions::default()
+        };
+        let scene = render_calibration_sphere(&opts, radius).unwrap();
+        let side = scene.stack.width as f64;
+        let truth = Circle {
+            cx: side / 2.0,
+            cy: side / 2.0,
+            radius,
+        };
+        check(name, &scene.stack, &truth, 0.3);
+    }
+}
