@@ -42,6 +42,7 @@ pub mod integrate;
 pub mod interreflect;
 pub mod io;
 pub mod lambertian;
+pub mod lightcal;
 pub mod lut;
 pub mod mesh;
 pub mod progress;
