@@ -33,7 +33,7 @@
 
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
-use crate::sphere::fit::solve3;
+use crate::sphere::fit::{accumulate, solve3};
 use rayon::prelude::*;
 
 /// Settings of [`solve`]. `Default` is the robust solver; [`Options::plain`] is
@@ -208,14 +208,7 @@ fn least_squares(
     let mut a = [[0.0f64; 3]; 3];
     let mut rhs = [0.0f64; 3];
     for &i in sel {
-        let l = eff[i];
-        let v = value(i);
-        for r in 0..3 {
-            for c in 0..3 {
-                a[r][c] += l[r] * l[c];
-            }
-            rhs[r] += l[r] * v;
-        }
+        accumulate(&mut a, &mut rhs, eff[i], value(i));
     }
     solve3(a, rhs)
 }

@@ -25,7 +25,7 @@
 
 use crate::error::{Error, Result};
 use crate::image::{normalize, ImageStack, Lights};
-use crate::sphere::fit::solve3;
+use crate::sphere::fit::{accumulate, solve3};
 use crate::sphere::Circle;
 
 /// Settings of [`from_matte_sphere`].
@@ -231,13 +231,7 @@ fn lsq_light<'a>(
     let mut b = [0.0f64; 3];
     let mut n = 0usize;
     for p in sel {
-        let v = value(p) as f64;
-        for r in 0..3 {
-            for c in 0..3 {
-                a[r][c] += p.normal[r] * p.normal[c];
-            }
-            b[r] += p.normal[r] * v;
-        }
+        accumulate(&mut a, &mut b, p.normal, value(p) as f64);
         n += 1;
     }
     if n < 10 {

@@ -284,6 +284,17 @@ fn geometric_cost(points: &[[f64; 2]], c: &Circle) -> f64 {
     points.iter().map(|p| distance_to_rim(p, c).powi(2)).sum()
 }
 
+/// Add one equation x·u = v to the 3×3 normal equations (a += x xᵀ, b += x v).
+#[inline]
+pub(crate) fn accumulate(a: &mut [[f64; 3]; 3], b: &mut [f64; 3], x: [f64; 3], v: f64) {
+    for ((row, bi), xi) in a.iter_mut().zip(b.iter_mut()).zip(x) {
+        for (aij, xj) in row.iter_mut().zip(x) {
+            *aij += xi * xj;
+        }
+        *bi += xi * v;
+    }
+}
+
 /// Solve a 3×3 linear system by Gaussian elimination with partial pivoting.
 pub(crate) fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
     let norm = a.iter().flatten().map(|v| v.abs()).fold(0.0, f64::max);
