@@ -1,12 +1,183 @@
-//! `photostereo bench` (to be written).
+//! `photostereo bench`: speed figures of the main kernels, one table row per kernel.
+//!
+//! Every row is an entry of [`ROWS`]: a name, what it measures, and a function that
+//! builds its input (untimed) and returns a closure to time. To add a kernel (lookup,
+//! interreflection, ...), add one [`Row`] there.
 
 use crate::Global;
+use photostereo::image::pixel_to_xy;
+use photostereo::integrate::{fft_floor, integrate_gradients, Method, Options};
+use photostereo::{GrayImage, Mask};
+use std::time::Instant;
 
 /// Arguments of `photostereo bench`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+#[command(
+    after_help = "Example:\n  photostereo bench --size 2048 --lsq-size 1024 --repeat 3\n  photostereo bench --only fc,dct"
+)]
+pub struct Args {
+    /// Width and height of the grid for the FFT/DCT rows (pixels).
+    #[arg(long, default_value_t = 2048)]
+    pub size: usize,
+    /// Width and height of the image whose disk mask the lsq row integrates (pixels).
+    #[arg(long, default_value_t = 1024)]
+    pub lsq_size: usize,
+    /// Timed runs per row; the table shows the fastest.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: usize,
+    /// Comma-separated row names to run (default: all).
+    #[arg(long, value_delimiter = ',')]
+    pub only: Vec<String>,
+}
+
+/// A prepared, timeable job and the number of pixels it processes.
+pub struct Job {
+    /// Pixels processed per run (for Mpx/s).
+    pub pixels: usize,
+    /// The work to time.
+    pub run: Box<dyn FnMut() -> anyhow::Result<()>>,
+}
+
+/// One row of the table.
+pub struct Row {
+    /// Short name (also the `--only` key).
+    pub name: &'static str,
+    /// What is measured.
+    pub what: &'static str,
+    /// Print the time as a multiple of the `fft-floor` row (same grid size).
+    pub vs_floor: bool,
+    /// Build the input (not timed) and return the job.
+    pub prepare: fn(&Args) -> anyhow::Result<Job>,
+}
+
+/// The rows, in print order. The first is the FFT floor the Fourier rows are compared to.
+pub const ROWS: &[Row] = &[
+    Row {
+        name: "fft-floor",
+        vs_floor: true,
+        what: "one forward + one inverse 2-D real FFT (size²)",
+        prepare: |a| {
+            let img = sphere_gradients(a.size, a.size).0;
+            Ok(Job {
+                pixels: img.len(),
+                run: Box::new(move || {
+                    std::hint::black_box(fft_floor(&img));
+                    Ok(())
+                }),
+            })
+        },
+    },
+    Row {
+        name: "fc",
+        vs_floor: true,
+        what: "Frankot–Chellappa, periodic (size²)",
+        prepare: |a| integration_job(a.size, Method::FrankotChellappa { reflect: false }, false),
+    },
+    Row {
+        name: "fc-reflect",
+        vs_floor: true,
+        what: "Frankot–Chellappa on the mirrored 2×size grid",
+        prepare: |a| integration_job(a.size, Method::FrankotChellappa { reflect: true }, false),
+    },
+    Row {
+        name: "dct",
+        vs_floor: true,
+        what: "DCT Poisson, Neumann (size²)",
+        prepare: |a| integration_job(a.size, Method::Dct, false),
+    },
+    Row {
+        name: "path",
+        vs_floor: true,
+        what: "two-path integration (size²)",
+        prepare: |a| integration_job(a.size, Method::Path, false),
+    },
+    Row {
+        name: "lsq",
+        vs_floor: false,
+        what: "masked sparse-Cholesky lsq, disk in lsq-size²",
+        prepare: |a| integration_job(a.lsq_size, Method::Lsq, true),
+    },
+];
+
+/// Gradients of a sphere cap covering the grid (radius 0.8 × width).
+fn sphere_gradients(w: usize, h: usize) -> (GrayImage, GrayImage) {
+    let rad = 0.8 * w as f64;
+    let grad = |r: usize, c: usize| {
+        let (x, y) = pixel_to_xy(r, c, w, h);
+        let z = (rad * rad - x * x - y * y).max(1.0).sqrt();
+        ((-x / z) as f32, (-y / z) as f32)
+    };
+    (
+        GrayImage::from_fn(w, h, |r, c| grad(r, c).0),
+        GrayImage::from_fn(w, h, |r, c| grad(r, c).1),
+    )
+}
+
+fn integration_job(size: usize, method: Method, disk: bool) -> anyhow::Result<Job> {
+    let (p, q) = sphere_gradients(size, size);
+    let mask = if disk {
+        let rad = 0.48 * size as f64;
+        Mask::from_fn(size, size, |r, c| {
+            let (x, y) = pixel_to_xy(r, c, size, size);
+            x * x + y * y < rad * rad
+        })
+    } else {
+        Mask::full(size, size)
+    };
+    let opts = Options {
+        method,
+        ..Options::default()
+    };
+    Ok(Job {
+        pixels: mask.count(),
+        run: Box::new(move || {
+            std::hint::black_box(integrate_gradients(&p, &q, &mask, &opts)?);
+            Ok(())
+        }),
+    })
+}
 
 /// Run the subcommand.
-pub fn run(_args: Args, _global: Global) -> anyhow::Result<()> {
-    anyhow::bail!("`photostereo bench` is not available yet")
+pub fn run(args: Args, _global: Global) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.size >= 2 && args.lsq_size >= 2,
+        "--size and --lsq-size must be at least 2"
+    );
+    let repeat = args.repeat.max(1);
+    println!(
+        "{:<12} {:>11} {:>10} {:>9} {:>8}  what",
+        "row", "pixels", "best s", "Mpx/s", "x floor"
+    );
+    let mut floor: Option<f64> = None;
+    for row in ROWS {
+        if !args.only.is_empty() && !args.only.iter().any(|o| o == row.name) {
+            continue;
+        }
+        let mut job = (row.prepare)(&args)?;
+        (job.run)()?; // warm-up (plans, page faults)
+        let mut best = f64::INFINITY;
+        for _ in 0..repeat {
+            let t = Instant::now();
+            (job.run)()?;
+            best = best.min(t.elapsed().as_secs_f64());
+        }
+        if row.name == "fft-floor" {
+            floor = Some(best);
+        }
+        let ratio = match (floor, row.vs_floor) {
+            (Some(f), true) => format!("{:.2}", best / f),
+            _ => "-".into(),
+        };
+        println!(
+            "{:<12} {:>11} {:>10.4} {:>9.1} {:>8}  {}",
+            row.name,
+            job.pixels,
+            best,
+            job.pixels as f64 / best / 1e6,
+            ratio,
+            row.what
+        );
+    }
+    println!("threads: {}", rayon::current_num_threads());
+    Ok(())
 }

@@ -178,7 +178,7 @@ fn io_err(e: std::io::Error) -> Error {
 
 /// Write a binary little-endian PLY: float x y z nx ny nz, optional uchar red green
 /// blue, and faces as `list uchar int vertex_indices`.
-pub fn write_ply_binary(mesh: &Mesh, out: &mut impl Write) -> Result<()> {
+pub fn write_ply_binary(mesh: &Mesh, out: &mut (impl Write + ?Sized)) -> Result<()> {
     let mut header = format!(
         "ply\nformat binary_little_endian 1.0\ncomment photostereo mesh, pixel units, camera frame (x right, y up, z toward the camera)\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\n",
         mesh.vertices.len()
@@ -213,7 +213,7 @@ pub fn write_ply_binary(mesh: &Mesh, out: &mut impl Write) -> Result<()> {
 
 /// Write a Wavefront OBJ: `v x y z [r g b]` (colours in 0..1, a common extension),
 /// `vn`, and faces `f a//a b//b c//c` (1-based).
-pub fn write_obj(mesh: &Mesh, out: &mut impl Write) -> Result<()> {
+pub fn write_obj(mesh: &Mesh, out: &mut (impl Write + ?Sized)) -> Result<()> {
     let mut s = String::with_capacity(mesh.vertices.len() * 60 + mesh.faces.len() * 30);
     s.push_str(
         "# photostereo mesh, pixel units, camera frame (x right, y up, z toward the camera)\n",

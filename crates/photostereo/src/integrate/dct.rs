@@ -15,12 +15,12 @@ use std::f64::consts::PI;
 use std::sync::Arc;
 
 /// Solve the Neumann Poisson problem on the W × H rectangle; arbitrary offset.
-pub(crate) fn integrate(p: &[f64], q: &[f64], w: usize, h: usize) -> Vec<f64> {
+pub(crate) fn integrate(p: &[f32], q: &[f32], w: usize, h: usize) -> Vec<f32> {
     let b = neumann_divergence(p, q, w, h);
     solve_neumann(b, w, h)
 }
 
-fn neumann_divergence(p: &[f64], q: &[f64], w: usize, h: usize) -> Vec<f32> {
+fn neumann_divergence(p: &[f32], q: &[f32], w: usize, h: usize) -> Vec<f32> {
     let mut b = vec![0.0f32; w * h];
     b.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
         let gx = |c: usize| 0.5 * (p[r * w + c] + p[r * w + c + 1]);
@@ -39,7 +39,7 @@ fn neumann_divergence(p: &[f64], q: &[f64], w: usize, h: usize) -> Vec<f32> {
             if r > 0 {
                 s -= gy(r - 1);
             }
-            *v = s as f32;
+            *v = s;
         }
     });
     b
@@ -60,7 +60,7 @@ fn rows(data: &mut [f32], n: usize, plan: &Arc<dyn TransformType2And3<f32>>, for
 }
 
 /// Solve L z = b (Neumann Laplacian of the W × H grid) with 2-D DCTs.
-pub(crate) fn solve_neumann(mut b: Vec<f32>, w: usize, h: usize) -> Vec<f64> {
+pub(crate) fn solve_neumann(mut b: Vec<f32>, w: usize, h: usize) -> Vec<f32> {
     let mut planner = DctPlanner::<f32>::new();
     let (pw, ph) = (planner.plan_dct2(w), planner.plan_dct2(h));
     rows(&mut b, w, &pw, true);
@@ -85,6 +85,7 @@ pub(crate) fn solve_neumann(mut b: Vec<f32>, w: usize, h: usize) -> Vec<f64> {
     let mut z = transpose(&t, w, h);
     drop(t);
     rows(&mut z, w, &pw, false);
-    let scale = 4.0 / (w * h) as f64;
-    z.into_iter().map(|v| v as f64 * scale).collect()
+    let scale = 4.0 / (w * h) as f32;
+    z.par_iter_mut().for_each(|v| *v *= scale);
+    z
 }

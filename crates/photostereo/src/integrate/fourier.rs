@@ -15,12 +15,12 @@ use std::f64::consts::PI;
 /// Solve on the periodic grid (or on its mirror image when `reflect`); returns the
 /// W × H depth (arbitrary offset).
 pub(crate) fn integrate(
-    p: &[f64],
-    q: &[f64],
+    p: &[f32],
+    q: &[f32],
     w: usize,
     h: usize,
     reflect: bool,
-) -> Result<Vec<f64>> {
+) -> Result<Vec<f32>> {
     if !reflect {
         let div = divergence(w, h, |r, c| (p[r * w + c], q[r * w + c]));
         return Ok(solve_periodic(div, w, h));
@@ -29,8 +29,8 @@ pub(crate) fn integrate(
     // Mirror about the right and bottom edges: p is odd across a vertical edge and
     // even across a horizontal one, q the reverse.
     let div = divergence(we, he, |r, c| {
-        let (mr, sr) = if r < h { (r, 1.0) } else { (he - 1 - r, -1.0) };
-        let (mc, sc) = if c < w { (c, 1.0) } else { (we - 1 - c, -1.0) };
+        let (mr, sr) = if r < h { (r, 1.0f32) } else { (he - 1 - r, -1.0) };
+        let (mc, sc) = if c < w { (c, 1.0f32) } else { (we - 1 - c, -1.0) };
         let i = mr * w + mc;
         (sc * p[i], sr * q[i])
     });
@@ -43,7 +43,7 @@ pub(crate) fn integrate(
 }
 
 /// Periodic divergence of the trapezoidal edge targets, `grad(r, c) = (p, q)`.
-fn divergence(w: usize, h: usize, grad: impl Fn(usize, usize) -> (f64, f64) + Sync) -> Vec<f32> {
+fn divergence(w: usize, h: usize, grad: impl Fn(usize, usize) -> (f32, f32) + Sync) -> Vec<f32> {
     use rayon::prelude::*;
     let mut div = vec![0.0f32; w * h];
     div.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
@@ -52,14 +52,14 @@ fn divergence(w: usize, h: usize, grad: impl Fn(usize, usize) -> (f64, f64) + Sy
             let (left, right) = ((c + w - 1) % w, (c + 1) % w);
             let dp = grad(r, right).0 - grad(r, left).0;
             let dq = grad(down, c).1 - grad(up, c).1;
-            *v = (0.5 * (dp - dq)) as f32;
+            *v = 0.5 * (dp - dq);
         }
     });
     div
 }
 
 /// Solve L z = div on the periodic W × H grid by FFT.
-fn solve_periodic(mut div: Vec<f32>, w: usize, h: usize) -> Vec<f64> {
+fn solve_periodic(mut div: Vec<f32>, w: usize, h: usize) -> Vec<f32> {
     use rayon::prelude::*;
     let fft = Fft2::new(w, h);
     let mut spec = fft.forward(&mut div);
@@ -78,5 +78,5 @@ fn solve_periodic(mut div: Vec<f32>, w: usize, h: usize) -> Vec<f64> {
             };
         }
     });
-    fft.inverse(&mut spec).into_iter().map(f64::from).collect()
+    fft.inverse(&mut spec)
 }

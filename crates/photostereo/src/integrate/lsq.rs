@@ -48,13 +48,13 @@ fn pixel_weights(weights: Option<&GrayImage>, mask: &Mask) -> Vec<f64> {
 
 /// Solve the masked problem; returns depth on the whole grid (0 outside the mask).
 pub(crate) fn integrate(
-    p: &[f64],
-    q: &[f64],
+    p: &[f32],
+    q: &[f32],
     mask: &Mask,
     weights: Option<&GrayImage>,
     comps: &Components,
     progress: &dyn Progress,
-) -> Result<Vec<f64>> {
+) -> Result<Vec<f32>> {
     let (w, h) = (mask.width, mask.height);
     progress.start("lsq: assemble, factorise, solve", 3);
     let wt = pixel_weights(weights, mask);
@@ -100,13 +100,19 @@ pub(crate) fn integrate(
         let er = right.map(|j| {
             (
                 index[j],
-                edge(i, j, 0.5 * (p[i] + p[j]), &mut diag, &mut rhs),
+                edge(i, j, 0.5 * (p[i] as f64 + p[j] as f64), &mut diag, &mut rhs),
             )
         });
         let ed = down.map(|j| {
             (
                 index[j],
-                edge(i, j, -0.5 * (q[i] + q[j]), &mut diag, &mut rhs),
+                edge(
+                    i,
+                    j,
+                    -0.5 * (q[i] as f64 + q[j] as f64),
+                    &mut diag,
+                    &mut rhs,
+                ),
             )
         });
         off.push((er, ed));
@@ -143,9 +149,9 @@ pub(crate) fn integrate(
     llt.solve_in_place(MatMut::from_column_major_slice_mut(&mut rhs, n, 1));
     progress.advance(1);
     progress.finish();
-    let mut z = vec![0.0; w * h];
+    let mut z = vec![0.0f32; w * h];
     for (k, &i) in pixels.iter().enumerate() {
-        z[i] = rhs[k];
+        z[i] = rhs[k] as f32;
     }
     Ok(z)
 }

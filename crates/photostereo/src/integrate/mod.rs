@@ -58,8 +58,9 @@ pub mod path;
 mod support;
 
 use crate::error::{Error, Result};
-use crate::image::{DepthMap, GrayImage, Image, Mask, NormalMap};
+use crate::image::{DepthMap, GrayImage, Mask, NormalMap};
 use crate::progress::{NoProgress, Progress};
+use rayon::prelude::*;
 
 pub use fft2::fft_floor;
 pub use support::{label_components, Components};
@@ -270,7 +271,7 @@ pub fn integrate_gradients_with_progress(
     let (p, q, clamped) = support::sanitize(p, q, mask);
     let comps = label_components(mask);
     let mut path_disagreement = None;
-    let z: Vec<f64> = match opts.method {
+    let z: Vec<f32> = match opts.method {
         Method::Path => {
             let (z, dis) = path::integrate(&p, &q, mask);
             path_disagreement = Some(dis);
@@ -280,7 +281,7 @@ pub fn integrate_gradients_with_progress(
         Method::Dct => dct::integrate(&p, &q, w, h),
         Method::Lsq => lsq::integrate(&p, &q, mask, opts.weights.as_ref(), &comps, progress)?,
     };
-    if z.iter().any(|v| !v.is_finite()) {
+    if z.par_iter().any(|v| !v.is_finite()) {
         return Err(Error::invalid(
             "integration",
             "the solver produced non-finite depth; check the gradients for huge values",
@@ -340,18 +341,4 @@ fn check_inputs(p: &GrayImage, q: &GrayImage, mask: &Mask, opts: &Options) -> Re
         }
     }
     Ok(())
-}
-
-/// Convert an `f64` buffer to a depth map, NaN outside the mask (helper for callers
-/// that integrate outside [`solve`]).
-pub fn to_depth(z: &[f64], mask: &Mask) -> DepthMap {
-    Image {
-        width: mask.width,
-        height: mask.height,
-        data: z
-            .iter()
-            .zip(&mask.data)
-            .map(|(&v, &m)| if m { v as f32 } else { f32::NAN })
-            .collect(),
-    }
 }

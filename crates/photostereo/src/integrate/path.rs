@@ -64,29 +64,30 @@ fn line(
 /// One path integral over the whole grid (gradients 0 outside the mask), z = 0 at
 /// `reference`.
 pub(crate) fn integrate_order(
-    p: &[f64],
-    q: &[f64],
+    p: &[f32],
+    q: &[f32],
     w: usize,
     h: usize,
     reference: (usize, usize),
     order: Order,
 ) -> Vec<f64> {
     let (r0, c0) = reference;
-    let mut z = vec![0.0; w * h];
+    let mut z = vec![0.0f64; w * h];
+    let (p, q) = (|i: usize| p[i] as f64, |i: usize| q[i] as f64);
     // ∂z/∂col = p, ∂z/∂row = −q.
     match order {
         Order::RowsFirst => {
-            line(w, c0, 0.0, |c| p[r0 * w + c], |c, v| z[r0 * w + c] = v);
+            line(w, c0, 0.0, |c| p(r0 * w + c), |c, v| z[r0 * w + c] = v);
             for c in 0..w {
                 let start = z[r0 * w + c];
-                line(h, r0, start, |r| -q[r * w + c], |r, v| z[r * w + c] = v);
+                line(h, r0, start, |r| -q(r * w + c), |r, v| z[r * w + c] = v);
             }
         }
         Order::ColumnsFirst => {
-            line(h, r0, 0.0, |r| -q[r * w + c0], |r, v| z[r * w + c0] = v);
+            line(h, r0, 0.0, |r| -q(r * w + c0), |r, v| z[r * w + c0] = v);
             for r in 0..h {
                 let start = z[r * w + c0];
-                line(w, c0, start, |c| p[r * w + c], |c, v| z[r * w + c] = v);
+                line(w, c0, start, |c| p(r * w + c), |c, v| z[r * w + c] = v);
             }
         }
     }
@@ -94,15 +95,15 @@ pub(crate) fn integrate_order(
 }
 
 /// Average of the two orders and the RMS of their difference over the mask.
-pub(crate) fn integrate(p: &[f64], q: &[f64], mask: &Mask) -> (Vec<f64>, f32) {
+pub(crate) fn integrate(p: &[f32], q: &[f32], mask: &Mask) -> (Vec<f32>, f32) {
     let (w, h) = (mask.width, mask.height);
     let reference = reference_pixel(mask).unwrap_or((h / 2, w / 2));
     let a = integrate_order(p, q, w, h, reference, Order::RowsFirst);
     let b = integrate_order(p, q, w, h, reference, Order::ColumnsFirst);
     let (mut sum, mut n) = (0.0, 0usize);
-    let mut avg = vec![0.0; w * h];
+    let mut avg = vec![0.0f32; w * h];
     for i in 0..w * h {
-        avg[i] = 0.5 * (a[i] + b[i]);
+        avg[i] = (0.5 * (a[i] + b[i])) as f32;
         if mask.data[i] {
             sum += (a[i] - b[i]).powi(2);
             n += 1;
@@ -120,6 +121,9 @@ pub fn single_path(p: &GrayImage, q: &GrayImage, mask: &Mask, order: Order) -> R
     let (w, h) = (mask.width, mask.height);
     let (pp, qq, _) = sanitize(p, q, mask);
     let reference = reference_pixel(mask).unwrap_or((h / 2, w / 2));
-    let z = integrate_order(&pp, &qq, w, h, reference, order);
+    let z: Vec<f32> = integrate_order(&pp, &qq, w, h, reference, order)
+        .into_iter()
+        .map(|v| v as f32)
+        .collect();
     Ok(center_components(&z, &label_components(mask), w, h))
 }

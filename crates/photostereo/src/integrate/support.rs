@@ -16,6 +16,13 @@ pub struct Components {
 /// Label the 4-connected parts of `mask` (flood fill, raster order of first pixels).
 pub fn label_components(mask: &Mask) -> Components {
     let (w, h) = (mask.width, mask.height);
+    if !mask.data.is_empty() && mask.data.par_iter().all(|&m| m) {
+        // One part covering the grid: skip the flood fill (zeroed allocation is cheap).
+        return Components {
+            labels: vec![0; w * h],
+            count: 1,
+        };
+    }
     let mut labels = vec![u32::MAX; w * h];
     let mut count = 0u32;
     let mut stack = Vec::new();
@@ -54,51 +61,68 @@ pub fn label_components(mask: &Mask) -> Components {
     }
 }
 
-/// Gradients as `f64`, 0 outside the mask; non-finite values inside the mask become 0
-/// and are counted.
-pub fn sanitize(p: &GrayImage, q: &GrayImage, mask: &Mask) -> (Vec<f64>, Vec<f64>, usize) {
-    let n = p.len();
-    let mut pp = vec![0.0; n];
-    let mut qq = vec![0.0; n];
-    let mut bad = 0;
-    for i in 0..n {
-        if !mask.data[i] {
-            continue;
-        }
-        let (a, b) = (p.data[i], q.data[i]);
-        if a.is_finite() && b.is_finite() {
-            pp[i] = a as f64;
-            qq[i] = b as f64;
-        } else {
-            bad += 1;
-        }
-    }
-    (pp, qq, bad)
+/// Gradients as flat `f32` buffers, 0 outside the mask; non-finite values inside the
+/// mask become 0 and are counted.
+pub fn sanitize(p: &GrayImage, q: &GrayImage, mask: &Mask) -> (Vec<f32>, Vec<f32>, usize) {
+    let clean = |src: &GrayImage| -> (Vec<f32>, usize) {
+        let bad = std::sync::atomic::AtomicUsize::new(0);
+        let out = src
+            .data
+            .par_iter()
+            .zip(&mask.data)
+            .map(|(&v, &m)| match (m, v.is_finite()) {
+                (false, _) => 0.0,
+                (true, true) => v,
+                (true, false) => {
+                    bad.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    0.0
+                }
+            })
+            .collect();
+        (out, bad.into_inner())
+    };
+    let ((pp, bp), (qq, bq)) = rayon::join(|| clean(p), || clean(q));
+    // A pixel with both p and q bad counts once.
+    let both = if bp > 0 && bq > 0 {
+        p.data
+            .par_iter()
+            .zip(&q.data)
+            .zip(&mask.data)
+            .filter(|((a, b), &m)| m && !a.is_finite() && !b.is_finite())
+            .count()
+    } else {
+        0
+    };
+    (pp, qq, bp + bq - both)
 }
 
 /// RMS over the in-mask edges of z_j − z_i − g_e, with the trapezoidal targets of the
 /// module documentation.
-pub fn edge_residual(z: &[f64], p: &[f64], q: &[f64], mask: &Mask) -> f64 {
+pub fn edge_residual(z: &[f32], p: &[f32], q: &[f32], mask: &Mask) -> f64 {
     let (w, h) = (mask.width, mask.height);
-    let (mut sum, mut n) = (0.0, 0usize);
-    for r in 0..h {
-        for c in 0..w {
-            let i = r * w + c;
-            if !mask.data[i] {
-                continue;
+    let (sum, n) = (0..h)
+        .into_par_iter()
+        .map(|r| {
+            let (mut sum, mut n) = (0.0f64, 0usize);
+            for c in 0..w {
+                let i = r * w + c;
+                if !mask.data[i] {
+                    continue;
+                }
+                if c + 1 < w && mask.data[i + 1] {
+                    let e = z[i + 1] as f64 - z[i] as f64 - 0.5 * (p[i] as f64 + p[i + 1] as f64);
+                    sum += e * e;
+                    n += 1;
+                }
+                if r + 1 < h && mask.data[i + w] {
+                    let e = z[i + w] as f64 - z[i] as f64 + 0.5 * (q[i] as f64 + q[i + w] as f64);
+                    sum += e * e;
+                    n += 1;
+                }
             }
-            if c + 1 < w && mask.data[i + 1] {
-                let e = z[i + 1] - z[i] - 0.5 * (p[i] + p[i + 1]);
-                sum += e * e;
-                n += 1;
-            }
-            if r + 1 < h && mask.data[i + w] {
-                let e = z[i + w] - z[i] + 0.5 * (q[i] + q[i + w]);
-                sum += e * e;
-                n += 1;
-            }
-        }
-    }
+            (sum, n)
+        })
+        .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     if n == 0 {
         0.0
     } else {
@@ -107,28 +131,44 @@ pub fn edge_residual(z: &[f64], p: &[f64], q: &[f64], mask: &Mask) -> f64 {
 }
 
 /// Shift every connected part to mean 0 and put NaN outside the mask.
-pub fn center_components(z: &[f64], comps: &Components, w: usize, h: usize) -> DepthMap {
-    let mut sum = vec![0.0f64; comps.count];
-    let mut cnt = vec![0usize; comps.count];
-    for (v, &l) in z.iter().zip(&comps.labels) {
-        if l != u32::MAX {
-            sum[l as usize] += v;
-            cnt[l as usize] += 1;
-        }
-    }
+pub fn center_components(z: &[f32], comps: &Components, w: usize, h: usize) -> DepthMap {
+    let k = comps.count;
+    let (sum, cnt) = z
+        .par_chunks(w.max(1))
+        .zip(comps.labels.par_chunks(w.max(1)))
+        .fold(
+            || (vec![0.0f64; k], vec![0usize; k]),
+            |(mut s, mut n), (zr, lr)| {
+                for (v, &l) in zr.iter().zip(lr) {
+                    if l != u32::MAX {
+                        s[l as usize] += *v as f64;
+                        n[l as usize] += 1;
+                    }
+                }
+                (s, n)
+            },
+        )
+        .reduce(
+            || (vec![0.0f64; k], vec![0usize; k]),
+            |(mut s, mut n), (s2, n2)| {
+                s.iter_mut().zip(s2).for_each(|(a, b)| *a += b);
+                n.iter_mut().zip(n2).for_each(|(a, b)| *a += b);
+                (s, n)
+            },
+        );
     let mean: Vec<f64> = sum
         .iter()
         .zip(&cnt)
         .map(|(s, &c)| s / c.max(1) as f64)
         .collect();
     let data = z
-        .iter()
+        .par_iter()
         .zip(&comps.labels)
-        .map(|(v, &l)| {
+        .map(|(&v, &l)| {
             if l == u32::MAX {
                 f32::NAN
             } else {
-                (v - mean[l as usize]) as f32
+                (v as f64 - mean[l as usize]) as f32
             }
         })
         .collect();
