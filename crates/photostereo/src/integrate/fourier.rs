@@ -29,8 +29,16 @@ pub(crate) fn integrate(
     // Mirror about the right and bottom edges: p is odd across a vertical edge and
     // even across a horizontal one, q the reverse.
     let div = divergence(we, he, |r, c| {
-        let (mr, sr) = if r < h { (r, 1.0f32) } else { (he - 1 - r, -1.0) };
-        let (mc, sc) = if c < w { (c, 1.0f32) } else { (we - 1 - c, -1.0) };
+        let (mr, sr) = if r < h {
+            (r, 1.0f32)
+        } else {
+            (he - 1 - r, -1.0)
+        };
+        let (mc, sc) = if c < w {
+            (c, 1.0f32)
+        } else {
+            (we - 1 - c, -1.0)
+        };
         let i = mr * w + mc;
         (sc * p[i], sr * q[i])
     });

@@ -321,7 +321,12 @@ fn check_inputs(p: &GrayImage, q: &GrayImage, mask: &Mask, opts: &Options) -> Re
             "integration needs an image of at least 2x2 pixels",
         ));
     }
-    mask.check_not_empty("integration mask")?;
+    if !mask.data.par_iter().any(|&m| m) {
+        return Err(Error::EmptyMask {
+            what: "integration mask".into(),
+            fix: "use a mask with non-zero pixels over the object".into(),
+        });
+    }
     if let Some(weights) = &opts.weights {
         if opts.method != Method::Lsq {
             return Err(Error::invalid(

@@ -3,6 +3,7 @@
 
 use crate::image::{DepthMap, GrayImage, Image, Mask};
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// 4-connected parts of a mask.
 #[derive(Clone, Debug)]
@@ -62,8 +63,21 @@ pub fn label_components(mask: &Mask) -> Components {
 }
 
 /// Gradients as flat `f32` buffers, 0 outside the mask; non-finite values inside the
-/// mask become 0 and are counted.
-pub fn sanitize(p: &GrayImage, q: &GrayImage, mask: &Mask) -> (Vec<f32>, Vec<f32>, usize) {
+/// mask become 0 and are counted. Borrowed (no copy) when nothing needs cleaning.
+pub fn sanitize<'a>(
+    p: &'a GrayImage,
+    q: &'a GrayImage,
+    mask: &Mask,
+) -> (Cow<'a, [f32]>, Cow<'a, [f32]>, usize) {
+    let full = mask.data.par_iter().all(|&m| m);
+    if full
+        && p.data
+            .par_iter()
+            .chain(q.data.par_iter())
+            .all(|v| v.is_finite())
+    {
+        return (Cow::Borrowed(&p.data), Cow::Borrowed(&q.data), 0);
+    }
     let clean = |src: &GrayImage| -> (Vec<f32>, usize) {
         let bad = std::sync::atomic::AtomicUsize::new(0);
         let out = src
@@ -93,7 +107,7 @@ pub fn sanitize(p: &GrayImage, q: &GrayImage, mask: &Mask) -> (Vec<f32>, Vec<f32
     } else {
         0
     };
-    (pp, qq, bp + bq - both)
+    (Cow::Owned(pp), Cow::Owned(qq), bp + bq - both)
 }
 
 /// RMS over the in-mask edges of z_j − z_i − g_e, with the trapezoidal targets of the
