@@ -47,7 +47,7 @@ function start() {
   const camera = new THREE.PerspectiveCamera(30, box.clientWidth / box.clientHeight, data.radius * 0.01, data.radius * 20);
   const dist = data.radius / Math.sin((30 / 2) * Math.PI / 180) * 1.05;
   const home = () => {
-    camera.position.set(c.x + 0.35 * dist, c.y - 0.45 * dist, c.z + 0.82 * dist);
+    camera.position.set(c.x + 0.28 * dist, c.y - 0.38 * dist, c.z + 0.88 * dist);
     camera.up.set(0, 1, 0);
     camera.lookAt(c);
   };
