@@ -1,0 +1,266 @@
+//! The shape as a set of Lambertian facets on a (possibly coarser) grid.
+//!
+//! Facet `f` covers a `block`×`block` square of pixels. Its centre is the mean camera
+//! position (x, y, z) of its pixels inside the mask, its normal the normalised mean of their
+//! normals, and its **true** area the sum of the pixels' true areas Σ 1/n_z (one pixel has
+//! projected area 1). Quantities computed per facet (the irradiance from other facets) are
+//! spread back to pixels by bilinear interpolation between facet centres, so that a coarse
+//! grid still gives smooth per-pixel bounced light.
+
+use crate::error::{Error, Result};
+use crate::image::{dot3, normalize, pixel_to_xy, DepthMap, ImageStack, Mask, NormalMap};
+
+/// Smallest n_z used for the true area 1/n_z of a pixel (limits the area of grazing pixels).
+const MIN_NZ: f32 = 0.05;
+/// Facets whose normal differs from a pixel's by more than this (degrees) do not take part
+/// in interpolating that pixel's value.
+pub const CREASE_DEG: f32 = 20.0;
+
+/// Facets of a height field on a grid of `block`×`block` pixel cells.
+#[derive(Clone, Debug)]
+pub struct Facets {
+    /// Pixel size of one cell.
+    pub block: usize,
+    /// Image size in pixels.
+    pub width: usize,
+    /// Image size in pixels.
+    pub height: usize,
+    /// Grid size in cells (columns).
+    pub grid_w: usize,
+    /// Grid size in cells (rows).
+    pub grid_h: usize,
+    /// Facet index of each grid cell (`None` where the cell has no pixel inside the mask).
+    pub cell_facet: Vec<Option<u32>>,
+    /// Grid cell (row, col) of each facet.
+    pub cell: Vec<(u32, u32)>,
+    /// Camera-frame centre (x, y, z) of each facet, pixel units.
+    pub pos: Vec<[f32; 3]>,
+    /// Unit normal of each facet.
+    pub normal: Vec<[f32; 3]>,
+    /// True area of each facet (pixel² units).
+    pub area: Vec<f32>,
+    /// Pixels (flat indices) of each facet.
+    pub pixels: Vec<Vec<u32>>,
+    /// Height of each grid cell (mean depth of its pixels), NaN where the cell has no facet.
+    pub heights: Vec<f32>,
+    /// Normal of every pixel (copied from the input), used to keep [`Facets::spread`] from
+    /// blending across creases.
+    pub pixel_normals: Vec<[f32; 3]>,
+}
+
+impl Facets {
+    /// Build facets from a depth map, unit normals and a mask of the same size.
+    ///
+    /// Pixels inside the mask with a non-finite depth or a normal with n_z ≤ 0 are skipped.
+    pub fn build(depth: &DepthMap, normals: &NormalMap, mask: &Mask, block: usize) -> Result<Self> {
+        let (w, h) = (depth.width, depth.height);
+        mask.check_size(w, h, "interreflection mask")?;
+        if !normals.same_size(depth) {
+            return Err(Error::SizeMismatch {
+                what: "normal map for the interreflection kernel".into(),
+                expected_w: w,
+                expected_h: h,
+                found_w: normals.width,
+                found_h: normals.height,
+                fix: "use normals and depth of the same size".into(),
+            });
+        }
+        if block == 0 {
+            return Err(Error::invalid(
+                "facet block size 0",
+                "use a block of at least 1 pixel",
+            ));
+        }
+        let (gw, gh) = (w.div_ceil(block), h.div_ceil(block));
+        let mut cell_pixels: Vec<Vec<u32>> = vec![Vec::new(); gw * gh];
+        for r in 0..h {
+            for c in 0..w {
+                let i = r * w + c;
+                let n = normals.data[i];
+                if mask.data[i] && depth.data[i].is_finite() && n[2] > 0.0 && n[2].is_finite() {
+                    cell_pixels[(r / block) * gw + c / block].push(i as u32);
+                }
+            }
+        }
+        let mut f = Facets {
+            block,
+            width: w,
+            height: h,
+            grid_w: gw,
+            grid_h: gh,
+            cell_facet: vec![None; gw * gh],
+            cell: Vec::new(),
+            pos: Vec::new(),
+            normal: Vec::new(),
+            area: Vec::new(),
+            pixels: Vec::new(),
+            heights: vec![f32::NAN; gw * gh],
+            pixel_normals: normals.data.clone(),
+        };
+        for (ci, px) in cell_pixels.into_iter().enumerate() {
+            if px.is_empty() {
+                continue;
+            }
+            f.add_facet(ci, px, depth, normals);
+        }
+        if f.pos.is_empty() {
+            return Err(Error::EmptyMask {
+                what: "interreflection facets".into(),
+                fix: "give a mask with pixels of finite depth and normals facing the camera".into(),
+            });
+        }
+        Ok(f)
+    }
+
+    fn add_facet(&mut self, ci: usize, px: Vec<u32>, depth: &DepthMap, normals: &NormalMap) {
+        let (w, h) = (self.width, self.height);
+        let mut s = [0.0f64; 3];
+        let mut ns = [0.0f32; 3];
+        let mut area = 0.0f32;
+        for &p in &px {
+            let p = p as usize;
+            let (x, y) = pixel_to_xy(p / w, p % w, w, h);
+            s[0] += x;
+            s[1] += y;
+            s[2] += depth.data[p] as f64;
+            let n = normals.data[p];
+            for a in 0..3 {
+                ns[a] += n[a];
+            }
+            area += 1.0 / n[2].max(MIN_NZ);
+        }
+        let m = px.len() as f64;
+        let idx = self.pos.len() as u32;
+        self.cell_facet[ci] = Some(idx);
+        self.cell
+            .push(((ci / self.grid_w) as u32, (ci % self.grid_w) as u32));
+        self.pos
+            .push([(s[0] / m) as f32, (s[1] / m) as f32, (s[2] / m) as f32]);
+        self.normal.push(normalize(ns));
+        self.area.push(area);
+        self.heights[ci] = (s[2] / m) as f32;
+        self.pixels.push(px);
+    }
+
+    /// Number of facets.
+    pub fn len(&self) -> usize {
+        self.pos.len()
+    }
+
+    /// True when there is no facet.
+    pub fn is_empty(&self) -> bool {
+        self.pos.is_empty()
+    }
+
+    /// Mean of each light's pixel values over each facet: facet-major `[f * k + light]`.
+    pub fn pool(&self, stack: &ImageStack) -> Vec<f32> {
+        let k = stack.k;
+        let mut out = vec![0.0f32; self.len() * k];
+        for (f, px) in self.pixels.iter().enumerate() {
+            let acc = &mut out[f * k..(f + 1) * k];
+            for &p in px {
+                for (a, v) in acc.iter_mut().zip(stack.pixel_flat(p as usize)) {
+                    *a += *v;
+                }
+            }
+            let inv = 1.0 / px.len() as f32;
+            acc.iter_mut().for_each(|a| *a *= inv);
+        }
+        out
+    }
+
+    /// Spread facet values (`[f * k + light]`) back to every facet pixel by bilinear
+    /// interpolation between facet centres. A corner facet that is missing, or whose normal
+    /// differs from the pixel's by more than [`CREASE_DEG`] (V-groove apex, rim), is replaced by
+    /// linear extrapolation from the pixel's own facet through the facet mirrored about it
+    /// (2·v_own − v_mirror, at least 0), or by v_own when that one is unusable too; so values
+    /// never leak across a crease. Pixels outside the facets get 0.
+    pub fn spread(&self, values: &[f32], k: usize) -> ImageStack {
+        let mut out = ImageStack::zeros(self.width, self.height, k);
+        let b = self.block as f32;
+        let cos_crease = CREASE_DEG.to_radians().cos();
+        for (own, px) in self.pixels.iter().enumerate() {
+            let (orow, ocol) = (self.cell[own].0 as i64, self.cell[own].1 as i64);
+            let vown = &values[own * k..(own + 1) * k];
+            for &p in px {
+                let p = p as usize;
+                let (r, c) = (p / self.width, p % self.width);
+                let u = (r as f32 + 0.5) / b - 0.5;
+                let v = (c as f32 + 0.5) / b - 0.5;
+                let (r0, c0) = (u.floor(), v.floor());
+                let (fu, fv) = (u - r0, v - c0);
+                let usable = |rr: i64, cc: i64| -> Option<usize> {
+                    if rr < 0 || cc < 0 || rr >= self.grid_h as i64 || cc >= self.grid_w as i64 {
+                        return None;
+                    }
+                    let f = self.cell_facet[rr as usize * self.grid_w + cc as usize]? as usize;
+                    let ok = f == own || dot3(self.normal[f], self.pixel_normals[p]) >= cos_crease;
+                    ok.then_some(f)
+                };
+                let o = out.pixel_flat_mut(p);
+                for (dr, dc, wgt) in [
+                    (0, 0, (1.0 - fu) * (1.0 - fv)),
+                    (0, 1, (1.0 - fu) * fv),
+                    (1, 0, fu * (1.0 - fv)),
+                    (1, 1, fu * fv),
+                ] {
+                    if wgt <= 0.0 {
+                        continue;
+                    }
+                    let (rr, cc) = (r0 as i64 + dr, c0 as i64 + dc);
+                    if let Some(f) = usable(rr, cc) {
+                        for (a, v) in o.iter_mut().zip(&values[f * k..(f + 1) * k]) {
+                            *a += wgt * v;
+                        }
+                    } else if let Some(m) = usable(2 * orow - rr, 2 * ocol - cc) {
+                        let vm = &values[m * k..(m + 1) * k];
+                        for ((a, vo), vmm) in o.iter_mut().zip(vown).zip(vm) {
+                            *a += wgt * (2.0 * vo - vmm).max(0.0);
+                        }
+                    } else {
+                        for (a, vo) in o.iter_mut().zip(vown) {
+                            *a += wgt * vo;
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Height of the grid at continuous cell coordinates (row, col), cell (R, C) centred at
+    /// (R + 0.5, C + 0.5): bilinear between the finite corner heights; `None` where no
+    /// neighbouring cell has a facet.
+    #[inline]
+    pub fn height_at(&self, row: f32, col: f32) -> Option<f32> {
+        let (u, v) = (row - 0.5, col - 0.5);
+        let (r0, c0) = (u.floor(), v.floor());
+        let (fu, fv) = (u - r0, v - c0);
+        let (r0, c0) = (r0 as i64, c0 as i64);
+        let mut acc = 0.0f32;
+        let mut wsum = 0.0f32;
+        let mut hmax = f32::NEG_INFINITY;
+        for (dr, dc, wgt) in [
+            (0, 0, (1.0 - fu) * (1.0 - fv)),
+            (0, 1, (1.0 - fu) * fv),
+            (1, 0, fu * (1.0 - fv)),
+            (1, 1, fu * fv),
+        ] {
+            let (rr, cc) = (r0 + dr, c0 + dc);
+            if rr < 0 || cc < 0 || rr >= self.grid_h as i64 || cc >= self.grid_w as i64 {
+                continue;
+            }
+            let hv = self.heights[rr as usize * self.grid_w + cc as usize];
+            if hv.is_finite() {
+                acc += wgt * hv;
+                wsum += wgt;
+                hmax = hmax.max(hv);
+            }
+        }
+        if wsum <= 0.0 {
+            return None;
+        }
+        // Near the mask border some corners are missing: renormalise over the present ones.
+        Some((acc / wsum).min(hmax))
+    }
+}

@@ -1,0 +1,303 @@
+//! The Nayar–Ikeuchi–Kanade iteration ("Shape from interreflections", IJCV 6(3), 1991).
+//!
+//! Photometric stereo on images with interreflections sees a concave shape too shallow
+//! (bounced light flattens the shading) and too bright. Starting from that shape S₀:
+//!
+//! 1. build the kernel K on S_{t−1} (facets, visibility),
+//! 2. compensate the raw images: I_direct = I_raw − ρ_{t−1}∘(K·I_raw),
+//! 3. photometric stereo + integration on I_direct → S_t (normals, albedo, depth),
+//! 4. stop when mean |z_t − z_{t−1}| (both taken relative to their mean over the mask)
+//!    divided by the depth range of z_t is below the tolerance, or after `max_iter` steps.
+//!
+//! The fixed point is exact: with the true shape and albedo, step 2 returns the direct
+//! images. Without convergence (oscillation, divergence) the run stops at the maximum, says
+//! so in [`Convergence`], and [`NikOutput::best`] points at the iterate with the smallest
+//! change.
+
+use super::radiosity::Model;
+use super::RadiosityOptions;
+use crate::error::{Error, Result};
+use crate::image::{DepthMap, GrayImage, ImageStack, Mask, NormalMap};
+use crate::progress::{NoProgress, Progress};
+
+/// Options of the iteration.
+#[derive(Clone, Copy, Debug)]
+pub struct NikOptions {
+    /// Most compensation steps after the first (raw) reconstruction.
+    pub max_iter: usize,
+    /// Stop when mean |Δz| / (depth range) falls below this (unitless; 0.01 = 1 %).
+    pub tol: f32,
+    /// The forward model used to predict bounced light.
+    pub radiosity: RadiosityOptions,
+}
+
+impl Default for NikOptions {
+    fn default() -> Self {
+        NikOptions {
+            max_iter: 10,
+            tol: 0.01,
+            radiosity: RadiosityOptions::default(),
+        }
+    }
+}
+
+/// One shape estimate: what photometric stereo + integration return for a set of images.
+#[derive(Clone, Debug)]
+pub struct Reconstruction {
+    /// Unit normals.
+    pub normals: NormalMap,
+    /// Albedo (same scale as the images / light intensities).
+    pub albedo: GrayImage,
+    /// Depth, pixel units, NaN outside the mask.
+    pub depth: DepthMap,
+}
+
+/// One iterate with its diagnostics.
+#[derive(Clone, Debug)]
+pub struct Iterate {
+    /// The shape estimate.
+    pub shape: Reconstruction,
+    /// Mean |Δz| (pixels) against the previous iterate, after removing each mean; NaN for
+    /// iterate 0.
+    pub mean_change: f32,
+    /// `mean_change` / depth range of this iterate.
+    pub relative_change: f32,
+    /// Depth range (max − min over the mask), pixels: the depth of the concavity.
+    pub depth_range: f32,
+    /// Mean albedo over the mask.
+    pub mean_albedo: f32,
+}
+
+/// How the iteration ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Convergence {
+    /// The relative change fell below the tolerance at this iterate.
+    Converged {
+        /// Iterate index (1-based compensation steps).
+        at: usize,
+    },
+    /// `max_iter` was reached first.
+    MaxIterations {
+        /// True when the change went up again at least once (oscillation or divergence).
+        oscillating: bool,
+    },
+}
+
+/// Result of [`iterate`].
+#[derive(Clone, Debug)]
+pub struct NikOutput {
+    /// Iterate 0 is the raw reconstruction; iterate t the one after t compensations.
+    pub iterations: Vec<Iterate>,
+    /// Index of the iterate to use: the last one when converged, otherwise the one with the
+    /// smallest change.
+    pub best: usize,
+    /// How the iteration ended.
+    pub convergence: Convergence,
+}
+
+impl NikOutput {
+    /// The iterate to use.
+    pub fn best_shape(&self) -> &Reconstruction {
+        &self.iterations[self.best].shape
+    }
+
+    /// One-line summary: converged or not, and which iterate is kept.
+    pub fn summary(&self) -> String {
+        match &self.convergence {
+            Convergence::Converged { at } => format!(
+                "converged after {at} iteration(s) (relative change {:.4})",
+                self.iterations[*at].relative_change
+            ),
+            Convergence::MaxIterations { oscillating } => {
+                format!(
+                "did not converge in {} iterations{}; keeping iterate {} (smallest change {:.4})",
+                self.iterations.len() - 1,
+                if *oscillating { " (the change oscillates)" } else { "" },
+                self.best,
+                self.iterations[self.best].relative_change
+            )
+            }
+        }
+    }
+
+    /// Convergence table as CSV: iteration, mean change (px), relative change, depth range
+    /// (px), mean albedo.
+    pub fn convergence_csv(&self) -> String {
+        let mut s =
+            String::from("iteration,mean_change_px,relative_change,depth_range_px,mean_albedo\n");
+        for (t, it) in self.iterations.iter().enumerate() {
+            s.push_str(&format!(
+                "{t},{},{},{},{}\n",
+                it.mean_change, it.relative_change, it.depth_range, it.mean_albedo
+            ));
+        }
+        s
+    }
+}
+
+/// Run the iteration with any photometric stereo + integration given as `reconstruct`.
+///
+/// `raw` are the images with interreflections; `mask` selects the object.
+pub fn iterate(
+    raw: &ImageStack,
+    mask: &Mask,
+    opts: &NikOptions,
+    reconstruct: &dyn Fn(&ImageStack) -> Result<Reconstruction>,
+    progress: &dyn Progress,
+) -> Result<NikOutput> {
+    mask.check_size(raw.width, raw.height, "interreflection mask")?;
+    mask.check_not_empty("interreflection mask")?;
+    if opts.tol.is_nan() || opts.tol < 0.0 {
+        return Err(Error::invalid(
+            format!("interreflection tolerance {}", opts.tol),
+            "use a tolerance ≥ 0 (e.g. 0.01)",
+        ));
+    }
+    progress.start("interreflection iterations", opts.max_iter as u64 + 1);
+    let first = reconstruct(raw)?;
+    let mut iterations = vec![make_iterate(first, None, mask)];
+    progress.advance(1);
+    let mut convergence = None;
+    for t in 1..=opts.max_iter {
+        let prev = &iterations[t - 1].shape;
+        let model = Model::new(
+            &prev.depth,
+            &prev.normals,
+            mask,
+            &opts.radiosity,
+            &NoProgress,
+        )?;
+        let direct = model.compensate(raw, &prev.albedo)?;
+        let shape = reconstruct(&direct)?;
+        let it = make_iterate(shape, Some(&prev.depth), mask);
+        let done = it.relative_change < opts.tol;
+        iterations.push(it);
+        progress.advance(1);
+        if done {
+            convergence = Some(Convergence::Converged { at: t });
+            break;
+        }
+    }
+    progress.finish();
+    let (best, convergence) = match convergence {
+        Some(c @ Convergence::Converged { at }) => (at, c),
+        _ => {
+            let changes: Vec<f32> = iterations.iter().map(|i| i.relative_change).collect();
+            choose_best(&changes)
+        }
+    };
+    Ok(NikOutput {
+        iterations,
+        best,
+        convergence,
+    })
+}
+
+/// Without convergence: the iterate (≥ 1) with the smallest change, and whether the change
+/// ever went up (oscillation or divergence). `changes[0]` belongs to the raw iterate.
+pub fn choose_best(changes: &[f32]) -> (usize, Convergence) {
+    let mut best = 0;
+    let mut best_change = f32::INFINITY;
+    for (t, &c) in changes.iter().enumerate().skip(1) {
+        if c < best_change {
+            best_change = c;
+            best = t;
+        }
+    }
+    let oscillating = changes
+        .windows(2)
+        .skip(1)
+        .any(|w| w[1].is_finite() && w[0].is_finite() && w[1] > w[0]);
+    (best, Convergence::MaxIterations { oscillating })
+}
+
+fn make_iterate(shape: Reconstruction, prev: Option<&DepthMap>, mask: &Mask) -> Iterate {
+    let range = depth_range(&shape.depth, mask);
+    let mean_change = prev.map_or(f32::NAN, |p| mean_abs_change(p, &shape.depth, mask));
+    let relative_change = mean_change / range.max(1e-6);
+    let mean_albedo = masked_mean(&shape.albedo, mask);
+    Iterate {
+        shape,
+        mean_change,
+        relative_change,
+        depth_range: range,
+        mean_albedo,
+    }
+}
+
+/// Max − min of the finite depths inside the mask (0 when there is none).
+pub fn depth_range(depth: &DepthMap, mask: &Mask) -> f32 {
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for (&z, &m) in depth.data.iter().zip(&mask.data) {
+        if m && z.is_finite() {
+            lo = lo.min(z);
+            hi = hi.max(z);
+        }
+    }
+    if hi >= lo {
+        hi - lo
+    } else {
+        0.0
+    }
+}
+
+/// Mean over the mask of the finite values.
+pub fn masked_mean(img: &GrayImage, mask: &Mask) -> f32 {
+    let (mut s, mut n) = (0.0f64, 0usize);
+    for (&v, &m) in img.data.iter().zip(&mask.data) {
+        if m && v.is_finite() {
+            s += v as f64;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        f32::NAN
+    } else {
+        (s / n as f64) as f32
+    }
+}
+
+/// Mean |(a − mean a) − (b − mean b)| over mask pixels where both are finite.
+pub fn mean_abs_change(a: &DepthMap, b: &DepthMap, mask: &Mask) -> f32 {
+    let both = |i: usize| mask.data[i] && a.data[i].is_finite() && b.data[i].is_finite();
+    let idx: Vec<usize> = (0..a.data.len()).filter(|&i| both(i)).collect();
+    if idx.is_empty() {
+        return f32::NAN;
+    }
+    let n = idx.len() as f64;
+    let ma = idx.iter().map(|&i| a.data[i] as f64).sum::<f64>() / n;
+    let mb = idx.iter().map(|&i| b.data[i] as f64).sum::<f64>() / n;
+    let s: f64 = idx
+        .iter()
+        .map(|&i| ((a.data[i] as f64 - ma) - (b.data[i] as f64 - mb)).abs())
+        .sum();
+    (s / n) as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn best_iterate_is_the_smallest_change_and_oscillation_is_flagged() {
+        let changes = [f32::NAN, 0.3, 0.1, 0.2, 0.05, 0.4];
+        let (best, c) = choose_best(&changes);
+        assert_eq!(best, 4);
+        assert_eq!(c, Convergence::MaxIterations { oscillating: true });
+        let (best, c) = choose_best(&[f32::NAN, 0.3, 0.2, 0.1]);
+        assert_eq!(best, 3);
+        assert_eq!(c, Convergence::MaxIterations { oscillating: false });
+    }
+
+    #[test]
+    fn mean_change_ignores_the_offset() {
+        let mask = Mask::full(3, 1);
+        let a = DepthMap::from_vec(3, 1, vec![0.0, 1.0, 2.0]).unwrap();
+        let b = a.map(|z| z + 5.0);
+        assert!(mean_abs_change(&a, &b, &mask) < 1e-6);
+        let c = DepthMap::from_vec(3, 1, vec![0.0, 2.0, 4.0]).unwrap();
+        // Centred: a = (-1, 0, 1), c = (-2, 0, 2): mean |Δ| = 2/3.
+        assert!((mean_abs_change(&a, &c, &mask) - 2.0 / 3.0).abs() < 1e-6);
+        assert_eq!(depth_range(&c, &mask), 4.0);
+    }
+}
