@@ -29,8 +29,9 @@ pub struct Facets {
     pub grid_w: usize,
     /// Grid size in cells (rows).
     pub grid_h: usize,
-    /// Facet index of each grid cell (`None` where the cell has no pixel inside the mask).
-    pub cell_facet: Vec<Option<u32>>,
+    /// Facets of each grid cell: none where the cell has no pixel inside the mask, two
+    /// where its pixels straddle a crease (see [`split_at_crease`]).
+    pub cell_facets: Vec<Vec<u32>>,
     /// Grid cell (row, col) of each facet.
     pub cell: Vec<(u32, u32)>,
     /// Camera-frame centre (x, y, z) of each facet, pixel units.
@@ -46,6 +47,47 @@ pub struct Facets {
     /// Normal of every pixel (copied from the input), used to keep [`Facets::spread`] from
     /// blending across creases.
     pub pixel_normals: Vec<[f32; 3]>,
+}
+
+/// Split the pixels of one cell in two by their normals (two-means on the unit sphere) when
+/// some normal is more than half of [`CREASE_DEG`] away from their mean, so that a facet never
+/// averages across a crease (a bowl's edge, a V-groove's apex).
+pub fn split_at_crease(px: Vec<u32>, normals: &NormalMap) -> Vec<Vec<u32>> {
+    let n = |p: u32| normals.data[p as usize];
+    let mean = normalize(px.iter().fold([0.0f32; 3], |a, &p| {
+        let v = n(p);
+        [a[0] + v[0], a[1] + v[1], a[2] + v[2]]
+    }));
+    let cos_half = (CREASE_DEG / 2.0).to_radians().cos();
+    let far = |from: [f32; 3]| {
+        px.iter()
+            .copied()
+            .min_by(|&a, &b| dot3(n(a), from).total_cmp(&dot3(n(b), from)))
+    };
+    let Some(a) = far(mean) else {
+        return vec![px];
+    };
+    if dot3(n(a), mean) >= cos_half {
+        return vec![px];
+    }
+    let mut ca = n(a);
+    let mut cb = far(ca).map_or(mean, n);
+    let mut groups = (Vec::new(), Vec::new());
+    for _ in 0..4 {
+        groups = px.iter().partition(|&&p| dot3(n(p), ca) >= dot3(n(p), cb));
+        let centre = |g: &Vec<u32>| {
+            normalize(g.iter().fold([0.0f32; 3], |s, &p| {
+                let v = n(p);
+                [s[0] + v[0], s[1] + v[1], s[2] + v[2]]
+            }))
+        };
+        if groups.0.is_empty() || groups.1.is_empty() {
+            return vec![px];
+        }
+        ca = centre(&groups.0);
+        cb = centre(&groups.1);
+    }
+    vec![groups.0, groups.1]
 }
 
 impl Facets {
@@ -88,7 +130,7 @@ impl Facets {
             height: h,
             grid_w: gw,
             grid_h: gh,
-            cell_facet: vec![None; gw * gh],
+            cell_facets: vec![Vec::new(); gw * gh],
             cell: Vec::new(),
             pos: Vec::new(),
             normal: Vec::new(),
@@ -101,7 +143,14 @@ impl Facets {
             if px.is_empty() {
                 continue;
             }
-            f.add_facet(ci, px, depth, normals);
+            let mean_z = px
+                .iter()
+                .map(|&p| depth.data[p as usize] as f64)
+                .sum::<f64>();
+            f.heights[ci] = (mean_z / px.len() as f64) as f32;
+            for group in split_at_crease(px, normals) {
+                f.add_facet(ci, group, depth, normals);
+            }
         }
         if f.pos.is_empty() {
             return Err(Error::EmptyMask {
@@ -131,14 +180,13 @@ impl Facets {
         }
         let m = px.len() as f64;
         let idx = self.pos.len() as u32;
-        self.cell_facet[ci] = Some(idx);
+        self.cell_facets[ci].push(idx);
         self.cell
             .push(((ci / self.grid_w) as u32, (ci % self.grid_w) as u32));
         self.pos
             .push([(s[0] / m) as f32, (s[1] / m) as f32, (s[2] / m) as f32]);
         self.normal.push(normalize(ns));
         self.area.push(area);
-        self.heights[ci] = (s[2] / m) as f32;
         self.pixels.push(px);
     }
 
@@ -193,9 +241,16 @@ impl Facets {
                     if rr < 0 || cc < 0 || rr >= self.grid_h as i64 || cc >= self.grid_w as i64 {
                         return None;
                     }
-                    let f = self.cell_facet[rr as usize * self.grid_w + cc as usize]? as usize;
-                    let ok = f == own || dot3(self.normal[f], self.pixel_normals[p]) >= cos_crease;
-                    ok.then_some(f)
+                    let cell = &self.cell_facets[rr as usize * self.grid_w + cc as usize];
+                    if cell.contains(&(own as u32)) {
+                        return Some(own);
+                    }
+                    let np = self.pixel_normals[p];
+                    let (f, d) = cell
+                        .iter()
+                        .map(|&f| (f as usize, dot3(self.normal[f as usize], np)))
+                        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+                    (d >= cos_crease).then_some(f)
                 };
                 let o = out.pixel_flat_mut(p);
                 for (dr, dc, wgt) in [
