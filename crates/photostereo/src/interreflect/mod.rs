@@ -23,11 +23,15 @@
 pub mod facets;
 pub mod kernel;
 pub mod nik;
+pub mod plot;
 pub mod radiosity;
+pub mod scene;
 
 pub use kernel::{Kernel, KernelOptions};
 pub use nik::{iterate, Convergence, Iterate, NikOptions, NikOutput, Reconstruction};
+pub use plot::{convergence_plot_png, profile_plot_png};
 pub use radiosity::{Model, Rendered};
+pub use scene::{render_with_interreflections, render_with_interreflections_report, BounceReport};
 
 /// How the visibility V_ij of facet j from facet i is decided.
 #[derive(Clone, Copy, Debug, PartialEq)]

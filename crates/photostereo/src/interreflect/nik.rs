@@ -6,8 +6,11 @@
 //! 1. build the kernel K on S_{t−1} (facets, visibility),
 //! 2. compensate the raw images: I_direct = I_raw − ρ_{t−1}∘(K·I_raw),
 //! 3. photometric stereo + integration on I_direct → S_t (normals, albedo, depth),
-//! 4. stop when mean |z_t − z_{t−1}| (both taken relative to their mean over the mask)
-//!    divided by the depth range of z_t is below the tolerance, or after `max_iter` steps.
+//! 4. stop when the spread of Δz = z_t − z_{t−1} over the mask (its 99th minus its 1st
+//!    percentile, so the free offset of integration does not count) divided by the depth
+//!    range of z_t is below the tolerance, or after `max_iter` steps. For a bowl or a groove
+//!    this is the relative change of the depth of the concavity; unlike the mean |Δz| it is
+//!    not diluted by flat parts that do not move.
 //!
 //! The fixed point is exact: with the true shape and albedo, step 2 returns the direct
 //! images. Without convergence (oscillation, divergence) the run stops at the maximum, says
@@ -21,11 +24,12 @@ use crate::image::{DepthMap, GrayImage, ImageStack, Mask, NormalMap};
 use crate::progress::{NoProgress, Progress};
 
 /// Options of the iteration.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct NikOptions {
     /// Most compensation steps after the first (raw) reconstruction.
     pub max_iter: usize,
-    /// Stop when mean |Δz| / (depth range) falls below this (unitless; 0.01 = 1 %).
+    /// Stop when the spread of Δz (99th − 1st percentile) / depth range falls below this
+    /// (unitless; 0.01 = 1 %).
     pub tol: f32,
     /// The forward model used to predict bounced light.
     pub radiosity: RadiosityOptions,
@@ -60,7 +64,8 @@ pub struct Iterate {
     /// Mean |Δz| (pixels) against the previous iterate, after removing each mean; NaN for
     /// iterate 0.
     pub mean_change: f32,
-    /// `mean_change` / depth range of this iterate.
+    /// Spread of Δz (99th − 1st percentile over the mask) / depth range of this iterate;
+    /// NaN for iterate 0. The convergence test compares it with the tolerance.
     pub relative_change: f32,
     /// Depth range (max − min over the mask), pixels: the depth of the concavity.
     pub depth_range: f32,
@@ -214,7 +219,8 @@ pub fn choose_best(changes: &[f32]) -> (usize, Convergence) {
 fn make_iterate(shape: Reconstruction, prev: Option<&DepthMap>, mask: &Mask) -> Iterate {
     let range = depth_range(&shape.depth, mask);
     let mean_change = prev.map_or(f32::NAN, |p| mean_abs_change(p, &shape.depth, mask));
-    let relative_change = mean_change / range.max(1e-6);
+    let relative_change =
+        prev.map_or(f32::NAN, |p| change_spread(p, &shape.depth, mask)) / range.max(1e-6);
     let mean_albedo = masked_mean(&shape.albedo, mask);
     Iterate {
         shape,
@@ -255,6 +261,22 @@ pub fn masked_mean(img: &GrayImage, mask: &Mask) -> f32 {
     } else {
         (s / n as f64) as f32
     }
+}
+
+/// 99th minus 1st percentile of b − a over mask pixels where both are finite (0 if none).
+pub fn change_spread(a: &DepthMap, b: &DepthMap, mask: &Mask) -> f32 {
+    let mut d: Vec<f32> = (0..a.data.len())
+        .filter(|&i| mask.data[i] && a.data[i].is_finite() && b.data[i].is_finite())
+        .map(|i| b.data[i] - a.data[i])
+        .collect();
+    if d.is_empty() {
+        return 0.0;
+    }
+    let n = d.len();
+    let (lo, hi) = ((n - 1) / 100, (n - 1) - (n - 1) / 100);
+    let low = *d.select_nth_unstable_by(lo, f32::total_cmp).1;
+    let high = *d.select_nth_unstable_by(hi, f32::total_cmp).1;
+    high - low
 }
 
 /// Mean |(a − mean a) − (b − mean b)| over mask pixels where both are finite.
@@ -299,5 +321,8 @@ mod tests {
         // Centred: a = (-1, 0, 1), c = (-2, 0, 2): mean |Δ| = 2/3.
         assert!((mean_abs_change(&a, &c, &mask) - 2.0 / 3.0).abs() < 1e-6);
         assert_eq!(depth_range(&c, &mask), 4.0);
+        // Δ = (0, 1, 2): with 3 samples the percentiles are the extremes.
+        assert!((change_spread(&a, &c, &mask) - 2.0).abs() < 1e-6);
+        assert!(change_spread(&a, &b, &mask).abs() < 1e-6);
     }
 }
