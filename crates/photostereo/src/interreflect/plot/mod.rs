@@ -212,7 +212,7 @@ fn fmt_tick(t: f64) -> String {
     let a = t.abs();
     if a == 0.0 {
         "0".into()
-    } else if a >= 1000.0 || a < 0.01 {
+    } else if !(0.01..1000.0).contains(&a) {
         format!("{t:.0e}")
     } else if (t - t.round()).abs() < 1e-9 {
         format!("{t:.0}")
