@@ -28,7 +28,7 @@ pub mod radiosity;
 pub mod scene;
 
 pub use kernel::{Kernel, KernelOptions};
-pub use nik::{iterate, Convergence, Iterate, NikOptions, NikOutput, Reconstruction};
+pub use nik::{iterate, solve, Convergence, Iterate, NikOptions, NikOutput, Reconstruction};
 pub use plot::{convergence_plot_png, profile_plot_png};
 pub use radiosity::{Model, Rendered};
 pub use scene::{render_with_interreflections, render_with_interreflections_report, BounceReport};

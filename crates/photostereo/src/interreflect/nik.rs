@@ -20,8 +20,9 @@
 use super::radiosity::Model;
 use super::RadiosityOptions;
 use crate::error::{Error, Result};
-use crate::image::{DepthMap, GrayImage, ImageStack, Mask, NormalMap};
+use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::{NoProgress, Progress};
+use crate::{integrate, lambertian};
 
 /// Options of the iteration.
 #[derive(Clone, Debug)]
@@ -33,6 +34,11 @@ pub struct NikOptions {
     pub tol: f32,
     /// The forward model used to predict bounced light.
     pub radiosity: RadiosityOptions,
+    /// Photometric stereo used at every step (default: shadow rejection, no highlight
+    /// rejection — the model is Lambertian).
+    pub lambertian: lambertian::Options,
+    /// Integration used at every step (default: masked least squares).
+    pub integrate: integrate::Options,
 }
 
 impl Default for NikOptions {
@@ -41,8 +47,44 @@ impl Default for NikOptions {
             max_iter: 10,
             tol: 0.01,
             radiosity: RadiosityOptions::default(),
+            lambertian: lambertian::Options {
+                reject_shadows: true,
+                reject_highlights: false,
+                residual_rejection: 0.0,
+                ..lambertian::Options::default()
+            },
+            integrate: integrate::Options::default(),
         }
     }
+}
+
+/// The iteration with Lambertian photometric stereo ([`lambertian::solve`]) and integration
+/// ([`integrate::solve`]) on images `raw` taken under `lights`.
+pub fn solve(
+    raw: &ImageStack,
+    mask: &Mask,
+    lights: &Lights,
+    opts: &NikOptions,
+    progress: &dyn Progress,
+) -> Result<NikOutput> {
+    if lights.is_empty() || lights.len() != raw.k {
+        return Err(Error::LightCount {
+            what: "light directions for the interreflection iteration".into(),
+            expected: raw.k,
+            found: lights.len(),
+            fix: "give one light direction per image (at least 3)".into(),
+        });
+    }
+    let reconstruct = |stack: &ImageStack| -> Result<Reconstruction> {
+        let ps = lambertian::solve(stack, mask, lights, &opts.lambertian)?;
+        let z = integrate::solve(&ps.normals, mask, &opts.integrate)?;
+        Ok(Reconstruction {
+            normals: ps.normals,
+            albedo: ps.albedo,
+            depth: z.depth,
+        })
+    };
+    iterate(raw, mask, opts, &reconstruct, progress)
 }
 
 /// One shape estimate: what photometric stereo + integration return for a set of images.
