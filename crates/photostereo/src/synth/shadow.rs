@@ -19,9 +19,12 @@
 //!   ([`Shape::height`]) exceeds the ray. Steps are [`STEP`] pixels, or longer when that
 //!   is provably safe: write height − ray = g_body(t) + g_bumps(t), where g_body (the
 //!   ellipsoidal body minus the ray) is concave in t, so its slope from t on is at most
-//!   its secant slope just before t, and the Gaussian bumps change by at most
-//!   S = Σ|a_i|·e^(−1/2)/σ_i per pixel. With g(t) < 0 the ray therefore stays above the
-//!   surface for the next −g/(secant + S) pixels, and if secant + S ≤ 0 forever. The march
+//!   its secant slope c just before t, and the Gaussian bumps change by at most
+//!   S = Σ|a_i|·e^(−1/2)/σ_i per pixel, or by at most b'(t)·Δ + K·Δ²/2 over Δ pixels with
+//!   K = Σ|a_i|/σ_i² (the largest second derivative of a Gaussian along a line). With
+//!   g(t) < 0 the ray therefore stays above the surface for the next −g/(c + S) pixels
+//!   and for the next Δ* pixels, the positive root of g + (c + b')Δ + KΔ²/2; if c + S ≤ 0
+//!   it stays above forever. The march
 //!   also stops when the ray leaves the elliptical outline (convex, never re-entered),
 //!   rises above the highest point of the shape, or has gone 2·(W + H) pixels. Features
 //!   narrower than the half-pixel step can be stepped over.
@@ -113,29 +116,53 @@ impl<'a> Occluder<'a> {
             return false;
         }
         let (ux, uy, m) = (l[0] / horiz, l[1] / horiz, l[2] / horiz);
-        // Largest slope of the bump sum along any horizontal direction.
+        // Largest slope and curvature of the bump sum along any horizontal line.
         let bump_slope: f64 = bumps
             .iter()
             .map(|b| b.amplitude.abs() * (-0.5f64).exp() / b.sigma)
+            .sum();
+        let bump_curv: f64 = bumps
+            .iter()
+            .map(|b| b.amplitude.abs() / (b.sigma * b.sigma))
             .sum();
         let body_minus_ray = |t: f64| {
             let (x, y) = (x0 + t * ux, y0 + t * uy);
             let u = 1.0 - (x / rx).powi(2) - (y / ry).powi(2);
             hb * u.max(0.0).sqrt() - (z0 + t * m)
         };
+        // Exact slope of the bump sum along the ray at t.
+        let bumps_slope_at = |t: f64| -> f64 {
+            let (x, y) = (x0 + t * ux, y0 + t * uy);
+            bumps
+                .iter()
+                .map(|b| {
+                    let (dx, dy) = (x - b.x, y - b.y);
+                    let s2 = b.sigma * b.sigma;
+                    let g = b.amplitude * (-(dx * dx + dy * dy) / (2.0 * s2)).exp();
+                    -g * (dx * ux + dy * uy) / s2
+                })
+                .sum()
+        };
         let max_t = 2.0 * (self.width + self.height) as f64;
         let (mut t, mut g) = (0.0, 0.0);
         while t < max_t {
             let mut dt = STEP;
             if g < 0.0 {
-                // Secant slope of the concave body − ray just before t bounds its slope
-                // from t on; the bumps add at most `bump_slope` per pixel.
+                // From t on, body − ray falls at least as fast as its secant just before
+                // t (concavity), the bumps rise at most `bump_slope` per pixel (linear
+                // bound) or b'(t)·Δ + K·Δ²/2 (Taylor bound): the ray stays above the
+                // surface while either bound stays below 0.
                 let delta = 0.125;
-                let rate = (body_minus_ray(t) - body_minus_ray(t - delta)) / delta + bump_slope;
+                let secant = (body_minus_ray(t) - body_minus_ray(t - delta)) / delta;
+                let rate = secant + bump_slope;
                 if rate <= 0.0 {
                     return false; // the ray only gets further above the surface
                 }
-                dt = dt.max(-g / rate);
+                let a = secant + bumps_slope_at(t);
+                let quad = (-a + (a * a - 2.0 * bump_curv * g).sqrt()) / bump_curv;
+                dt = dt
+                    .max(-g / rate)
+                    .max(if quad.is_finite() { quad } else { 0.0 });
             }
             t += dt;
             let z = z0 + t * m;
