@@ -32,6 +32,7 @@ fn oscillating_run(max_iter: usize) -> (photostereo::interreflect::NikOutput, Ma
             normals: n,
             albedo: GrayImage::filled(w, h, 0.8),
             depth: z,
+            residual: f32::NAN,
         })
     };
     let opts = NikOptions {
@@ -70,7 +71,7 @@ fn an_oscillating_iteration_stops_at_the_maximum_and_keeps_the_best() {
 #[test]
 fn a_growing_change_is_flagged_as_oscillation() {
     let changes = [f32::NAN, 0.3, 0.1, 0.25, 0.12];
-    let (best, c) = photostereo::interreflect::nik::choose_best(&changes);
+    let (best, c) = photostereo::interreflect::nik::choose_best(&changes, &[]);
     assert_eq!(best, 2);
     assert_eq!(c, Convergence::MaxIterations { oscillating: true });
 }

@@ -13,9 +13,12 @@
 //!    not diluted by flat parts that do not move.
 //!
 //! The fixed point is exact: with the true shape and albedo, step 2 returns the direct
-//! images. Without convergence (oscillation, divergence) the run stops at the maximum, says
-//! so in [`Convergence`], and [`NikOutput::best`] points at the iterate with the smallest
-//! change.
+//! images, which are then exactly Lambertian. Each iterate is therefore rated by the
+//! photometric-stereo residual of the images compensated with it ([`Iterate::fit_residual`]).
+//! Without convergence (oscillation, divergence — e.g. on images that hold no
+//! interreflections, where every compensation over-corrects) the run stops at the maximum,
+//! says so in [`Convergence`], and [`NikOutput::best`] points at the iterate with the
+//! smallest fit residual.
 
 use super::radiosity::Model;
 use super::RadiosityOptions;
@@ -78,10 +81,12 @@ pub fn solve(
     let reconstruct = |stack: &ImageStack| -> Result<Reconstruction> {
         let ps = lambertian::solve(stack, mask, lights, &opts.lambertian)?;
         let z = integrate::solve(&ps.normals, mask, &opts.integrate)?;
+        let residual = masked_mean(&ps.residual, mask);
         Ok(Reconstruction {
             normals: ps.normals,
             albedo: ps.albedo,
             depth: z.depth,
+            residual,
         })
     };
     iterate(raw, mask, opts, &reconstruct, progress)
@@ -96,6 +101,9 @@ pub struct Reconstruction {
     pub albedo: GrayImage,
     /// Depth, pixel units, NaN outside the mask.
     pub depth: DepthMap,
+    /// How well the images fit the Lambertian model: mean over the mask of the photometric
+    /// stereo RMS residual (image units); NaN when unknown.
+    pub residual: f32,
 }
 
 /// One iterate with its diagnostics.
@@ -113,6 +121,10 @@ pub struct Iterate {
     pub depth_range: f32,
     /// Mean albedo over the mask.
     pub mean_albedo: f32,
+    /// [`Reconstruction::residual`] of the images compensated with THIS iterate's shape and
+    /// albedo: near 0 when the shape explains the interreflections (the compensated images
+    /// are then exactly Lambertian). NaN when not computed (after convergence, the last one).
+    pub fit_residual: f32,
 }
 
 /// How the iteration ended.
@@ -136,7 +148,8 @@ pub struct NikOutput {
     /// Iterate 0 is the raw reconstruction; iterate t the one after t compensations.
     pub iterations: Vec<Iterate>,
     /// Index of the iterate to use: the last one when converged, otherwise the one with the
-    /// smallest change.
+    /// smallest fit residual (the shape whose compensated images are the most Lambertian),
+    /// or the smallest change when residuals are unknown ([`choose_best`]).
     pub best: usize,
     /// How the iteration ended.
     pub convergence: Convergence,
@@ -156,26 +169,36 @@ impl NikOutput {
                 self.iterations[*at].relative_change
             ),
             Convergence::MaxIterations { oscillating } => {
+                let b = &self.iterations[self.best];
+                let why = if b.fit_residual.is_finite() {
+                    format!("smallest fit residual {:.5}", b.fit_residual)
+                } else {
+                    format!("smallest change {:.4}", b.relative_change)
+                };
                 format!(
-                "did not converge in {} iterations{}; keeping iterate {} (smallest change {:.4})",
-                self.iterations.len() - 1,
-                if *oscillating { " (the change oscillates)" } else { "" },
-                self.best,
-                self.iterations[self.best].relative_change
-            )
+                    "did not converge in {} iterations{}; keeping iterate {} ({why})",
+                    self.iterations.len() - 1,
+                    if *oscillating {
+                        " (the change oscillates)"
+                    } else {
+                        ""
+                    },
+                    self.best,
+                )
             }
         }
     }
 
     /// Convergence table as CSV: iteration, mean change (px), relative change, depth range
-    /// (px), mean albedo.
+    /// (px), mean albedo, fit residual.
     pub fn convergence_csv(&self) -> String {
-        let mut s =
-            String::from("iteration,mean_change_px,relative_change,depth_range_px,mean_albedo\n");
+        let mut s = String::from(
+            "iteration,mean_change_px,relative_change,depth_range_px,mean_albedo,fit_residual\n",
+        );
         for (t, it) in self.iterations.iter().enumerate() {
             s.push_str(&format!(
-                "{t},{},{},{},{}\n",
-                it.mean_change, it.relative_change, it.depth_range, it.mean_albedo
+                "{t},{},{},{},{},{}\n",
+                it.mean_change, it.relative_change, it.depth_range, it.mean_albedo, it.fit_residual
             ));
         }
         s
@@ -206,17 +229,10 @@ pub fn iterate(
     progress.advance(1);
     let mut convergence = None;
     for t in 1..=opts.max_iter {
-        let prev = &iterations[t - 1].shape;
-        let model = Model::new(
-            &prev.depth,
-            &prev.normals,
-            mask,
-            &opts.radiosity,
-            &NoProgress,
-        )?;
-        let direct = model.compensate(raw, &prev.albedo)?;
-        let shape = reconstruct(&direct)?;
-        let it = make_iterate(shape, Some(&prev.depth), mask);
+        let shape =
+            compensate_and_reconstruct(raw, mask, &iterations[t - 1].shape, opts, reconstruct)?;
+        iterations[t - 1].fit_residual = shape.residual;
+        let it = make_iterate(shape, Some(&iterations[t - 1].shape.depth), mask);
         let done = it.relative_change < opts.tol;
         iterations.push(it);
         progress.advance(1);
@@ -229,8 +245,17 @@ pub fn iterate(
     let (best, convergence) = match convergence {
         Some(c @ Convergence::Converged { at }) => (at, c),
         _ => {
+            // Rate the last iterate too (one more compensation), then pick the best.
+            if let Some(last) = iterations.last_mut() {
+                if opts.max_iter > 0 {
+                    let next =
+                        compensate_and_reconstruct(raw, mask, &last.shape, opts, reconstruct)?;
+                    last.fit_residual = next.residual;
+                }
+            }
             let changes: Vec<f32> = iterations.iter().map(|i| i.relative_change).collect();
-            choose_best(&changes)
+            let residuals: Vec<f32> = iterations.iter().map(|i| i.fit_residual).collect();
+            choose_best(&changes, &residuals)
         }
     };
     Ok(NikOutput {
@@ -240,17 +265,42 @@ pub fn iterate(
     })
 }
 
-/// Without convergence: the iterate (≥ 1) with the smallest change, and whether the change
-/// ever went up (oscillation or divergence). `changes[0]` belongs to the raw iterate.
-pub fn choose_best(changes: &[f32]) -> (usize, Convergence) {
-    let mut best = 0;
-    let mut best_change = f32::INFINITY;
-    for (t, &c) in changes.iter().enumerate().skip(1) {
-        if c < best_change {
-            best_change = c;
-            best = t;
-        }
-    }
+/// Compensate `raw` with the kernel and albedo of `shape`, then reconstruct.
+fn compensate_and_reconstruct(
+    raw: &ImageStack,
+    mask: &Mask,
+    shape: &Reconstruction,
+    opts: &NikOptions,
+    reconstruct: &dyn Fn(&ImageStack) -> Result<Reconstruction>,
+) -> Result<Reconstruction> {
+    let model = Model::new(
+        &shape.depth,
+        &shape.normals,
+        mask,
+        &opts.radiosity,
+        &NoProgress,
+    )?;
+    let direct = model.compensate(raw, &shape.albedo)?;
+    reconstruct(&direct)
+}
+
+/// Without convergence: the iterate with the smallest finite fit residual when every iterate
+/// has one, otherwise the iterate (≥ 1) with the smallest change; and whether the change ever
+/// went up (oscillation or divergence). `changes[0]` belongs to the raw iterate.
+pub fn choose_best(changes: &[f32], residuals: &[f32]) -> (usize, Convergence) {
+    let argmin = |v: &[f32], skip: usize| {
+        v.iter()
+            .enumerate()
+            .skip(skip)
+            .filter(|(_, c)| c.is_finite())
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .map_or(0, |(t, _)| t)
+    };
+    let best = if !residuals.is_empty() && residuals.iter().all(|r| r.is_finite()) {
+        argmin(residuals, 0)
+    } else {
+        argmin(changes, 1)
+    };
     let oscillating = changes
         .windows(2)
         .skip(1)
@@ -270,6 +320,7 @@ fn make_iterate(shape: Reconstruction, prev: Option<&DepthMap>, mask: &Mask) -> 
         relative_change,
         depth_range: range,
         mean_albedo,
+        fit_residual: f32::NAN,
     }
 }
 
@@ -345,10 +396,13 @@ mod tests {
     #[test]
     fn best_iterate_is_the_smallest_change_and_oscillation_is_flagged() {
         let changes = [f32::NAN, 0.3, 0.1, 0.2, 0.05, 0.4];
-        let (best, c) = choose_best(&changes);
+        let (best, c) = choose_best(&changes, &[f32::NAN; 6]);
         assert_eq!(best, 4);
         assert_eq!(c, Convergence::MaxIterations { oscillating: true });
-        let (best, c) = choose_best(&[f32::NAN, 0.3, 0.2, 0.1]);
+        // With residuals for every iterate, the smallest residual wins (here the raw one).
+        let (best, _) = choose_best(&changes, &[0.01, 0.02, 0.03, 0.04, 0.05, 0.06]);
+        assert_eq!(best, 0);
+        let (best, c) = choose_best(&[f32::NAN, 0.3, 0.2, 0.1], &[]);
         assert_eq!(best, 3);
         assert_eq!(c, Convergence::MaxIterations { oscillating: false });
     }
