@@ -1,12 +1,129 @@
-//! `photostereo eval` (to be written).
+//! `photostereo eval`: compare a normal map (and optionally a depth map) with ground
+//! truth and print the angular error statistics and the depth RMSE.
 
 use crate::Global;
+use anyhow::Context;
+use photostereo::eval::{angular_error_map, angular_errors, depth_rmse, DepthStats, NormalStats};
+use photostereo::io;
+use photostereo::Mask;
+use std::path::PathBuf;
 
 /// Arguments of `photostereo eval`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+#[command(
+    after_help = "Example:\n  photostereo eval --normals out/normals.npy --gt data/normal_gt.npy \
+--mask data/mask.png --depth out/depth.npy --depth-gt data/depth_gt.npy\n\n\
+Pixels count inside the mask (all pixels without --mask) where the ground truth is defined; \
+an estimate that is NaN or zero there counts as 180°."
+)]
+pub struct Args {
+    /// Estimated normal map, float (H, W, 3) .npy.
+    #[arg(long, value_name = "EST.npy", requires = "gt")]
+    normals: Option<PathBuf>,
+    /// Ground-truth normal map, float (H, W, 3) .npy.
+    #[arg(long, value_name = "GT.npy", requires = "normals")]
+    gt: Option<PathBuf>,
+    /// Mask (PNG/TIFF, non-zero = inside, or .npy); default: every pixel.
+    #[arg(long, value_name = "MASK")]
+    mask: Option<PathBuf>,
+    /// Estimated depth map, float (H, W) .npy (pixel units).
+    #[arg(long, value_name = "EST.npy", requires = "depth_gt")]
+    depth: Option<PathBuf>,
+    /// Ground-truth depth map, float (H, W) .npy.
+    #[arg(long, value_name = "GT.npy", requires = "depth")]
+    depth_gt: Option<PathBuf>,
+    /// Write a false-colour picture of the angular error (0–30°) to this PNG.
+    #[arg(long, value_name = "PNG")]
+    error_png: Option<PathBuf>,
+    /// Print the figures as JSON (also with --quiet).
+    #[arg(long)]
+    json: bool,
+}
 
 /// Run the subcommand.
-pub fn run(_args: Args, _global: Global) -> anyhow::Result<()> {
-    anyhow::bail!("`photostereo eval` is not available yet")
+pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
+    if args.normals.is_none() && args.depth.is_none() {
+        anyhow::bail!(
+            "nothing to evaluate: give --normals with --gt, and/or --depth with --depth-gt"
+        );
+    }
+    let mask = match &args.mask {
+        Some(p) => Some(io::read_mask_any(p)?),
+        None => None,
+    };
+    let normals = match (&args.normals, &args.gt) {
+        (Some(est), Some(gt)) => Some(eval_normals(est, gt, mask.as_ref(), &args)?),
+        _ => None,
+    };
+    let depth = match (&args.depth, &args.depth_gt) {
+        (Some(est), Some(gt)) => {
+            let est = io::read_gray_npy(est)?;
+            let gt = io::read_gray_npy(gt)?;
+            let full = Mask::full(gt.width, gt.height);
+            Some(depth_rmse(&est, &gt, mask.as_ref().unwrap_or(&full))?)
+        }
+        _ => None,
+    };
+    if args.json {
+        let value = serde_json::json!({ "normals": normals, "depth": depth });
+        println!("{}", serde_json::to_string_pretty(&value)?);
+    } else if !global.quiet {
+        print!("{}", table(normals.as_ref(), depth.as_ref()));
+    }
+    Ok(())
+}
+
+fn eval_normals(
+    est: &std::path::Path,
+    gt: &std::path::Path,
+    mask: Option<&Mask>,
+    args: &Args,
+) -> anyhow::Result<NormalStats> {
+    let est = io::read_normals_npy(est)?;
+    let gt = io::read_normals_npy(gt)?;
+    let full = Mask::full(gt.width, gt.height);
+    let mask = mask.unwrap_or(&full);
+    let stats = angular_errors(&est, &gt, mask)?;
+    if let Some(png) = &args.error_png {
+        let map = angular_error_map(&est, &gt, mask)?;
+        io::write_colormap_png(png, &map, Some(mask), Some((0.0, 30.0)))
+            .with_context(|| format!("writing the error picture {}", png.display()))?;
+    }
+    Ok(stats)
+}
+
+/// The human-readable table.
+fn table(normals: Option<&NormalStats>, depth: Option<&DepthStats>) -> String {
+    let mut s = String::new();
+    if let Some(n) = normals {
+        s += "normals\n";
+        s += &format!("  mean angular error   {:>9.3}°\n", n.mean);
+        s += &format!("  median               {:>9.3}°\n", n.median);
+        s += &format!("  rms                  {:>9.3}°\n", n.rms);
+        s += &format!("  max                  {:>9.3}°\n", n.max);
+        s += &format!(
+            "  under 5° / 10° / 20° {:>6.1}% / {:.1}% / {:.1}%\n",
+            n.under_5, n.under_10, n.under_20
+        );
+        s += &format!("  pixels               {:>9}", n.count);
+        if n.invalid_est > 0 {
+            s += &format!("  ({} without estimate, scored 180°)", n.invalid_est);
+        }
+        if n.skipped_gt > 0 {
+            s += &format!(
+                "  ({} masked pixels without ground truth skipped)",
+                n.skipped_gt
+            );
+        }
+        s += "\n";
+    }
+    if let Some(d) = depth {
+        s += "depth (after removing the best offset)\n";
+        s += &format!("  rmse                 {:>9.4} px\n", d.rmse);
+        s += &format!("  mean abs error       {:>9.4} px\n", d.mae);
+        s += &format!("  offset removed       {:>9.4} px\n", d.offset);
+        s += &format!("  ground-truth range   {:>9.4} px\n", d.range);
+        s += &format!("  pixels               {:>9}\n", d.count);
+    }
+    s
 }

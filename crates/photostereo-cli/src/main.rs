@@ -12,6 +12,7 @@ mod integrate;
 mod interreflect;
 mod lights;
 mod normals;
+#[allow(dead_code)] // used by the long-running subcommands as they land
 mod progress;
 mod run;
 mod synth;

@@ -1,0 +1,482 @@
+//! Loading and writing whole datasets in the DiLiGenT layout (see the
+//! [module docs](super) for the files and the rules).
+
+use super::raster::{decode_gray, read_mask_any, save_png, write_mask_png, Decoded, LUMA};
+use super::{read_file, write_text};
+use crate::error::{Error, Result};
+use crate::image::{normalize, ImageStack, Lights, Mask};
+use rayon::prelude::*;
+use std::cmp::Ordering;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Options of [`load_dataset`].
+#[derive(Clone, Debug)]
+pub struct LoadOptions {
+    /// Fail when `light_directions.txt` is missing (default `false`: `lights` is `None`).
+    pub require_lights: bool,
+    /// Fail when there is no mask (default `false`: `mask` is `None`).
+    pub require_mask: bool,
+    /// Divide each image by its `light_intensities.txt` entry (default `true`). When
+    /// `false` the images are left as they are and the luminance of each intensity goes
+    /// to [`Lights::intensities`] instead.
+    pub apply_intensities: bool,
+    /// Read the mask from this file (PNG/TIFF or `.npy`) instead of `dir/mask.png`.
+    pub mask_path: Option<PathBuf>,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        LoadOptions {
+            require_lights: false,
+            require_mask: false,
+            apply_intensities: true,
+            mask_path: None,
+        }
+    }
+}
+
+/// A loaded dataset.
+#[derive(Clone, Debug)]
+pub struct Dataset {
+    /// The K images as luminance in [0, 1] (already divided by the light intensities
+    /// when [`LoadOptions::apply_intensities`]); `names` holds the file names.
+    pub stack: ImageStack,
+    /// Light directions (unit) from `light_directions.txt`, if present. Intensities are
+    /// 1 when they were applied to the images, else the luminance of each entry of
+    /// `light_intensities.txt` (1 without the file).
+    pub lights: Option<Lights>,
+    /// The raw `light_intensities.txt` entries as RGB triples, if present.
+    pub raw_intensities: Option<Vec<[f32; 3]>>,
+    /// Object mask, if present (checked: same size as the images, not empty).
+    pub mask: Option<Mask>,
+    /// Number of (pixel, image) samples inside the mask (everywhere without a mask)
+    /// where some channel sits at full scale (255 or 65535): clipped highlights.
+    pub saturated: usize,
+    /// The dataset directory.
+    pub dir: PathBuf,
+    /// Bit depth of the images: 8, 16 (or 32 for float TIFF).
+    pub bit_depth: u8,
+}
+
+/// Load a dataset directory (DiLiGenT layout, see the [module docs](super)).
+///
+/// Errors name the file and the problem: missing directory, no light image, an
+/// unreadable or non-image file, images of different sizes or bit depths, a count of
+/// light directions or intensities different from the number of images, a bad line in a
+/// text file, a mask of the wrong size or an empty mask.
+pub fn load_dataset(dir: &Path, opts: &LoadOptions) -> Result<Dataset> {
+    if !dir.is_dir() {
+        return Err(Error::NotFound {
+            path: dir.to_path_buf(),
+            fix: "give the directory that holds the light images".into(),
+        });
+    }
+    let files = list_images(dir)?;
+    let k = files.len();
+    let raw_intensities = optional(dir.join("light_intensities.txt"), |p| {
+        let v = read_intensities(p)?;
+        check_count(p, k, v.len(), "one intensity line per image")?;
+        Ok(v)
+    })?;
+    let lights = optional(dir.join("light_directions.txt"), |p| {
+        let l = read_lights(p)?;
+        check_count(p, k, l.len(), "one direction line per image")?;
+        Ok(l)
+    })?;
+    if opts.require_lights && lights.is_none() {
+        return Err(Error::NotFound {
+            path: dir.join("light_directions.txt"),
+            fix: "this method needs the light directions: calibrate them first".into(),
+        });
+    }
+    let scales: Vec<Option<[f32; 3]>> = (0..k)
+        .map(|i| match &raw_intensities {
+            Some(v) if opts.apply_intensities => Some(v[i]),
+            _ => None,
+        })
+        .collect();
+    let decoded: Vec<Decoded> = files
+        .par_iter()
+        .zip(scales.par_iter())
+        .map(|(f, s)| decode_gray(f, *s))
+        .collect::<Result<_>>()?;
+    check_consistent(&files, &decoded)?;
+    let first = &decoded[0].image;
+    let mask = load_mask(dir, opts, first.width, first.height)?;
+    let saturated = count_saturated(&decoded, mask.as_ref());
+    let bit_depth = decoded[0].bit_depth;
+    let images: Vec<_> = decoded.into_iter().map(|d| d.image).collect();
+    let mut stack = ImageStack::from_images(&images)?;
+    stack.names = files
+        .iter()
+        .map(|f| {
+            f.file_name()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect();
+    let lights = lights.map(|mut l| {
+        l.intensities = match (&raw_intensities, opts.apply_intensities) {
+            (Some(v), false) => v.iter().map(|t| luminance(*t)).collect(),
+            _ => vec![1.0; k],
+        };
+        l
+    });
+    Ok(Dataset {
+        stack,
+        lights,
+        raw_intensities,
+        mask,
+        saturated,
+        dir: dir.to_path_buf(),
+        bit_depth,
+    })
+}
+
+fn luminance(t: [f32; 3]) -> f32 {
+    LUMA[0] * t[0] + LUMA[1] * t[1] + LUMA[2] * t[2]
+}
+
+/// Run `read` on `path` when the file exists.
+fn optional<T>(path: PathBuf, read: impl FnOnce(&Path) -> Result<T>) -> Result<Option<T>> {
+    if path.exists() {
+        read(&path).map(Some)
+    } else {
+        Ok(None)
+    }
+}
+
+fn check_count(path: &Path, expected: usize, found: usize, fix: &str) -> Result<()> {
+    if expected != found {
+        return Err(Error::LightCount {
+            what: path.display().to_string(),
+            expected,
+            found,
+            fix: format!("{fix} ({expected} images)"),
+        });
+    }
+    Ok(())
+}
+
+/// All images must share the size and bit depth of the first.
+fn check_consistent(files: &[PathBuf], decoded: &[Decoded]) -> Result<()> {
+    let first = &decoded[0];
+    for (f, d) in files.iter().zip(decoded).skip(1) {
+        if !d.image.same_size(&first.image) {
+            return Err(Error::SizeMismatch {
+                what: format!("{} (first image {})", f.display(), files[0].display()),
+                expected_w: first.image.width,
+                expected_h: first.image.height,
+                found_w: d.image.width,
+                found_h: d.image.height,
+                fix: "all light images must have the same size".into(),
+            });
+        }
+        if d.bit_depth != first.bit_depth {
+            return Err(Error::invalid(
+                format!(
+                    "{}: {}-bit image, but {} is {}-bit",
+                    f.display(),
+                    d.bit_depth,
+                    files[0].display(),
+                    first.bit_depth
+                ),
+                "all light images must have the same bit depth",
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn load_mask(dir: &Path, opts: &LoadOptions, w: usize, h: usize) -> Result<Option<Mask>> {
+    let path = opts
+        .mask_path
+        .clone()
+        .unwrap_or_else(|| dir.join("mask.png"));
+    if !path.exists() {
+        if opts.require_mask || opts.mask_path.is_some() {
+            return Err(Error::NotFound {
+                path,
+                fix: "give a mask image (non-zero = object) of the size of the images".into(),
+            });
+        }
+        return Ok(None);
+    }
+    let mask = read_mask_any(&path)?;
+    let what = path.display().to_string();
+    mask.check_size(w, h, &what)?;
+    mask.check_not_empty(&what)?;
+    Ok(Some(mask))
+}
+
+fn count_saturated(decoded: &[Decoded], mask: Option<&Mask>) -> usize {
+    decoded
+        .iter()
+        .map(|d| {
+            d.saturated
+                .iter()
+                .enumerate()
+                .filter(|&(i, &s)| s && mask.is_none_or(|m| m.data[i]))
+                .count()
+        })
+        .sum()
+}
+
+/// True when a file name may be a light image: a PNG/TIFF extension, and a stem
+/// (lower case) that neither contains `mask`, nor ends in `_gt`, nor starts with
+/// `normal`, `depth`, `albedo`, `error`, `overlay` or `preview`.
+pub fn is_light_image_name(name: &str) -> bool {
+    let lower = name.to_ascii_lowercase();
+    let Some((stem, ext)) = lower.rsplit_once('.') else {
+        return false;
+    };
+    let image_ext = matches!(ext, "png" | "tif" | "tiff");
+    let excluded = stem.contains("mask")
+        || stem.ends_with("_gt")
+        || ["normal", "depth", "albedo", "error", "overlay", "preview"]
+            .iter()
+            .any(|p| stem.starts_with(p));
+    image_ext && !excluded && !stem.is_empty()
+}
+
+/// The light images of `dir`: from `filenames.txt` if present, else by name.
+fn list_images(dir: &Path) -> Result<Vec<PathBuf>> {
+    let list = dir.join("filenames.txt");
+    let files: Vec<PathBuf> = if list.exists() {
+        read_filenames(&list)?
+            .into_iter()
+            .map(|n| dir.join(n))
+            .collect()
+    } else {
+        let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
+        let mut names = Vec::new();
+        for entry in entries {
+            let entry = entry.map_err(|e| Error::io(dir, e))?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if is_light_image_name(&name) && entry.path().is_file() {
+                names.push(name);
+            }
+        }
+        names.sort_by(|a, b| natural_cmp(a, b));
+        names.into_iter().map(|n| dir.join(n)).collect()
+    };
+    if files.is_empty() {
+        return Err(Error::invalid(
+            format!("{}: no light images", dir.display()),
+            "put the images (PNG/TIFF, e.g. 001.png ...) there or list them in filenames.txt",
+        ));
+    }
+    Ok(files)
+}
+
+/// File names from `filenames.txt`: one per line; blank lines and `#` comments skipped.
+fn read_filenames(path: &Path) -> Result<Vec<String>> {
+    let text = read_text(path)?;
+    Ok(text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .map(str::to_string)
+        .collect())
+}
+
+/// Compare names so that runs of digits compare by value (`2.png` < `10.png`).
+pub fn natural_cmp(a: &str, b: &str) -> Ordering {
+    let (mut x, mut y) = (a.as_bytes(), b.as_bytes());
+    while !x.is_empty() && !y.is_empty() {
+        if x[0].is_ascii_digit() && y[0].is_ascii_digit() {
+            let dx = x.iter().take_while(|c| c.is_ascii_digit()).count();
+            let dy = y.iter().take_while(|c| c.is_ascii_digit()).count();
+            let (nx, ny) = (trim_zeros(&x[..dx]), trim_zeros(&y[..dy]));
+            let ord = nx.len().cmp(&ny.len()).then(nx.cmp(ny));
+            if ord != Ordering::Equal {
+                return ord;
+            }
+            (x, y) = (&x[dx..], &y[dy..]);
+        } else {
+            if x[0] != y[0] {
+                return x[0].cmp(&y[0]);
+            }
+            (x, y) = (&x[1..], &y[1..]);
+        }
+    }
+    x.len().cmp(&y.len()).then_with(|| a.cmp(b))
+}
+
+fn trim_zeros(d: &[u8]) -> &[u8] {
+    let z = d.iter().take_while(|&&c| c == b'0').count();
+    &d[z..]
+}
+
+fn read_text(path: &Path) -> Result<String> {
+    let bytes = read_file(path, "check the dataset directory")?;
+    String::from_utf8(bytes).map_err(|_| Error::Decode {
+        path: path.to_path_buf(),
+        message: "not a UTF-8 text file".into(),
+    })
+}
+
+/// Parse the numeric lines of a text table (blank lines and `#` comments skipped;
+/// numbers separated by spaces, tabs or commas). Returns (line number, values).
+fn parse_rows(path: &Path) -> Result<Vec<(usize, Vec<f32>)>> {
+    let text = read_text(path)?;
+    let mut rows = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let mut values = Vec::new();
+        for token in line.split(|c: char| c.is_whitespace() || c == ',') {
+            if token.is_empty() {
+                continue;
+            }
+            let v: f32 = token.parse().map_err(|_| parse_error(path, i, token))?;
+            if !v.is_finite() {
+                return Err(parse_error(path, i, token));
+            }
+            values.push(v);
+        }
+        rows.push((i + 1, values));
+    }
+    Ok(rows)
+}
+
+fn parse_error(path: &Path, line: usize, token: &str) -> Error {
+    Error::Parse {
+        path: path.to_path_buf(),
+        line: line + 1,
+        message: format!("`{token}` is not a finite number"),
+    }
+}
+
+/// Read `light_directions.txt`: one `x y z` line per light (surface → light, camera
+/// frame). Directions are normalised; intensities are set to 1.
+pub fn read_lights(path: &Path) -> Result<Lights> {
+    let mut dirs = Vec::new();
+    for (line, v) in parse_rows(path)? {
+        let bad = |message: String| Error::Parse {
+            path: path.to_path_buf(),
+            line,
+            message,
+        };
+        if v.len() != 3 {
+            return Err(bad(format!("{} numbers, expected 3 (x y z)", v.len())));
+        }
+        let d = [v[0], v[1], v[2]];
+        let norm = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        if norm.is_nan() || norm <= 1e-12 {
+            return Err(bad("zero-length light direction".into()));
+        }
+        dirs.push(normalize(d));
+    }
+    Ok(Lights::from_directions(dirs))
+}
+
+/// Read `light_intensities.txt`: one value or an `R G B` triple per line (a single
+/// value v becomes `[v, v, v]`); every value must be positive.
+pub fn read_intensities(path: &Path) -> Result<Vec<[f32; 3]>> {
+    let mut out = Vec::new();
+    for (line, v) in parse_rows(path)? {
+        let bad = |message: String| Error::Parse {
+            path: path.to_path_buf(),
+            line,
+            message,
+        };
+        let t = match v.as_slice() {
+            [a] => [*a; 3],
+            [r, g, b] => [*r, *g, *b],
+            _ => return Err(bad(format!("{} numbers, expected 1 or 3", v.len()))),
+        };
+        if t.iter().any(|&x| x <= 0.0) {
+            return Err(bad("intensities must be positive".into()));
+        }
+        out.push(t);
+    }
+    Ok(out)
+}
+
+/// Write `light_directions.txt` (one `x y z` line per light, 9 decimals).
+pub fn write_light_directions(path: &Path, lights: &Lights) -> Result<()> {
+    let mut s = String::new();
+    for d in &lights.directions {
+        let _ = writeln!(s, "{:.9} {:.9} {:.9}", d[0], d[1], d[2]);
+    }
+    write_text(path, &s)
+}
+
+/// Write `light_intensities.txt` (one `v v v` line per light, as DiLiGenT).
+pub fn write_intensities(path: &Path, lights: &Lights) -> Result<()> {
+    let mut s = String::new();
+    for v in &lights.intensities {
+        let _ = writeln!(s, "{v} {v} {v}");
+    }
+    write_text(path, &s)
+}
+
+/// Write a dataset directory that [`load_dataset`] reads back: `001.png` ... (gray,
+/// `bit_depth` 8 or 16, values in [0, 1] clamped and rounded to the bit depth),
+/// `filenames.txt`, `light_directions.txt`, `light_intensities.txt` and, with a mask,
+/// `mask.png`. Every file is written atomically.
+pub fn write_dataset(
+    dir: &Path,
+    stack: &ImageStack,
+    lights: &Lights,
+    mask: Option<&Mask>,
+    bit_depth: u8,
+) -> Result<()> {
+    if bit_depth != 8 && bit_depth != 16 {
+        return Err(Error::invalid(
+            format!("bit depth {bit_depth}"),
+            "write 8- or 16-bit images",
+        ));
+    }
+    check_count(
+        Path::new("light directions"),
+        stack.k,
+        lights.len(),
+        "one per image",
+    )?;
+    check_count(
+        Path::new("light intensities"),
+        stack.k,
+        lights.intensities.len(),
+        "one per image",
+    )?;
+    if let Some(m) = mask {
+        m.check_size(stack.width, stack.height, "mask of the dataset")?;
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let digits = stack.k.to_string().len().max(3);
+    let names: Vec<String> = (1..=stack.k).map(|i| format!("{i:0digits$}.png")).collect();
+    (0..stack.k)
+        .into_par_iter()
+        .try_for_each(|i| write_light_image(&dir.join(&names[i]), &stack.image(i), bit_depth))?;
+    write_text(&dir.join("filenames.txt"), &(names.join("\n") + "\n"))?;
+    write_light_directions(&dir.join("light_directions.txt"), lights)?;
+    write_intensities(&dir.join("light_intensities.txt"), lights)?;
+    if let Some(m) = mask {
+        write_mask_png(&dir.join("mask.png"), m)?;
+    }
+    Ok(())
+}
+
+fn write_light_image(path: &Path, img: &crate::image::GrayImage, bit_depth: u8) -> Result<()> {
+    if bit_depth == 16 {
+        return super::write_gray_png_range(path, img, 0.0, 1.0);
+    }
+    let data: Vec<u8> = img
+        .data
+        .iter()
+        .map(|&v| {
+            if v.is_nan() {
+                0
+            } else {
+                (v.clamp(0.0, 1.0) * 255.0).round() as u8
+            }
+        })
+        .collect();
+    save_png::<image::Luma<u8>>(path, img.width, img.height, data)
+}

@@ -1,0 +1,137 @@
+//! Reading and writing datasets, images, `.npy` arrays and text — the only module
+//! that touches the file system.
+//!
+//! # Dataset layout (DiLiGenT style)
+//!
+//! A dataset is one directory:
+//!
+//! | file | required | content |
+//! |---|---|---|
+//! | light images | yes | 8/16-bit grayscale or RGB PNG/TIFF, one per light |
+//! | `filenames.txt` | no | the image file names in light order, one per line |
+//! | `light_directions.txt` | no | one `x y z` line per light (surface → light, camera frame; normalised on load) |
+//! | `light_intensities.txt` | no | one line per light: one value, or an `R G B` triple |
+//! | `mask.png` | no | object mask, non-zero = inside |
+//!
+//! Without `filenames.txt` the light images are every `*.png`, `*.tif`, `*.tiff`
+//! file of the directory in natural name order (`2.png` before `10.png`), except
+//! files that are not light images by name ([`dataset::is_light_image_name`]):
+//! a stem (name without extension, lower case) that contains `mask` (`mask.png`,
+//! `lit_mask.png`), ends in `_gt` (`normal_gt.png`), or starts with `normal`,
+//! `depth`, `albedo`, `error`, `overlay` or `preview` (outputs of this tool).
+//!
+//! # Pixel values
+//!
+//! Integer samples are divided by their full scale (255 or 65535), so values lie in
+//! [0, 1]. RGB images are converted to luminance after each channel has been divided
+//! by its light intensity: Y = 0.2126 R/I_R + 0.7152 G/I_G + 0.0722 B/I_B (Rec. 709
+//! weights on linear values; no gamma is undone, photometric-stereo data is linear).
+//! A grayscale image with an RGB intensity triple is divided by the triple's
+//! luminance. An alpha channel is ignored. Float TIFFs are taken as they are.
+//!
+//! # Writing
+//!
+//! Every writer goes through [`write_atomic`]: the bytes go to a temporary file in the
+//! destination directory, which is renamed over the destination only when all of it
+//! was written, so a failed or interrupted run never leaves a half-written file.
+
+pub mod dataset;
+pub mod npy;
+pub mod raster;
+
+pub use dataset::{
+    load_dataset, read_intensities, read_lights, write_dataset, write_intensities,
+    write_light_directions, Dataset, LoadOptions,
+};
+pub use npy::{
+    read_gray_npy, read_mask_npy, read_normals_npy, write_gray_npy, write_mask_npy, write_normals,
+};
+pub use raster::{
+    read_gray_image, read_mask, read_mask_any, read_normals_png, write_colormap_png,
+    write_depth_png, write_gray_png, write_gray_png_range, write_mask_png, write_normals_png,
+};
+
+use crate::error::{Error, Result};
+use std::fs::{self, File, OpenOptions};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Write a file atomically: `fill` writes the content into a temporary file next to
+/// `path`, which then replaces `path` in one rename. On any error (from `fill`, from
+/// the disk) the temporary file is removed and `path` is left untouched. Missing
+/// parent directories are created.
+pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let Some(name) = path.file_name() else {
+        return Err(Error::invalid(
+            format!("{}: not a file name", path.display()),
+            "give the path of a file to write",
+        ));
+    };
+    fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let tmp = temp_path(&dir, &name.to_string_lossy());
+    let result = write_temp(&tmp, fill)
+        .and_then(|()| fs::rename(&tmp, path).map_err(|e| Error::io(path, e)));
+    if result.is_err() {
+        // Best effort: the temporary file may not exist if creating it failed.
+        let _ = fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// A fresh, unused temporary name in `dir` for a file that will become `name`.
+fn temp_path(dir: &Path, name: &str) -> PathBuf {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    dir.join(format!(".{name}.tmp-{}-{n}", std::process::id()))
+}
+
+fn write_temp(tmp: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
+    let file = OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(tmp)
+        .map_err(|e| Error::io(tmp, e))?;
+    let mut writer = BufWriter::new(file);
+    fill(&mut writer)?;
+    let file: File = writer
+        .into_inner()
+        .map_err(|e| Error::io(tmp, e.into_error()))?;
+    file.sync_all().map_err(|e| Error::io(tmp, e))
+}
+
+/// Write a text file atomically.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    write_bytes(path, text.as_bytes())
+}
+
+/// Write raw bytes atomically.
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic(path, |w| w.write_all(bytes).map_err(|e| Error::io(path, e)))
+}
+
+/// Read a whole file, with [`Error::NotFound`] naming it when it does not exist.
+pub(crate) fn read_file(path: &Path, fix: &str) -> Result<Vec<u8>> {
+    fs::read(path).map_err(|e| not_found_or_io(path, e, fix))
+}
+
+/// Map an I/O error to [`Error::NotFound`] (with `fix`) or [`Error::Io`].
+pub(crate) fn not_found_or_io(path: &Path, e: std::io::Error, fix: &str) -> Error {
+    if e.kind() == std::io::ErrorKind::NotFound {
+        Error::NotFound {
+            path: path.to_path_buf(),
+            fix: fix.to_string(),
+        }
+    } else {
+        Error::io(path, e)
+    }
+}
+
+/// An encoder error while writing `path`.
+pub(crate) fn encode_error(path: &Path, e: impl std::fmt::Display) -> Error {
+    Error::io(path, std::io::Error::other(e.to_string()))
+}

@@ -1,0 +1,371 @@
+//! Raster files (PNG, TIFF) through the `image` crate: light images, masks, normal
+//! maps and pictures for looking at.
+//!
+//! * Reading: 8/16-bit gray, gray+alpha, RGB, RGBA and float RGB(A); values are divided
+//!   by the full scale of the bit depth and RGB is turned into luminance (see the
+//!   [module docs](super)).
+//! * Writing (always PNG, always atomic): normal maps as 16-bit RGB with
+//!   c = (n + 1)/2, gray images as auto-scaled 16-bit, masks as 8-bit 0/255, and
+//!   false-colour 8-bit RGB pictures (turbo colour map) of depth or error maps.
+
+use super::{encode_error, not_found_or_io, write_atomic};
+use crate::error::{Error, Result};
+use crate::image::{GrayImage, Image, Mask, NormalMap};
+use image::codecs::png::PngEncoder;
+use image::{DynamicImage, ImageBuffer, ImageReader, Luma, Rgb};
+use std::path::Path;
+
+/// Rec. 709 luminance weights on linear R, G, B.
+pub const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
+
+/// A decoded light image: luminance in [0, 1], bit depth and saturated pixels.
+pub(crate) struct Decoded {
+    pub image: GrayImage,
+    /// 8 or 16 for integer images, 32 for float images.
+    pub bit_depth: u8,
+    /// True where some colour channel sits at the full scale (255 or 65535).
+    pub saturated: Vec<bool>,
+}
+
+/// Read one image as luminance in [0, 1] and return it with its bit depth (8, 16, or
+/// 32 for float files). `channel_scale` divides R, G, B before the conversion to
+/// luminance (a gray image is divided by the luminance of the triple); pass the light
+/// intensity here.
+pub fn read_gray_image(path: &Path, channel_scale: Option<[f32; 3]>) -> Result<(GrayImage, u8)> {
+    let d = decode_gray(path, channel_scale)?;
+    Ok((d.image, d.bit_depth))
+}
+
+fn open_image(path: &Path) -> Result<DynamicImage> {
+    let fix = "check the path; images must be PNG or TIFF files";
+    let reader = ImageReader::open(path)
+        .map_err(|e| not_found_or_io(path, e, fix))?
+        .with_guessed_format()
+        .map_err(|e| Error::io(path, e))?;
+    reader.decode().map_err(|e| Error::Decode {
+        path: path.to_path_buf(),
+        message: format!("{e} (expected an 8/16-bit gray or RGB PNG or TIFF image)"),
+    })
+}
+
+pub(crate) fn decode_gray(path: &Path, channel_scale: Option<[f32; 3]>) -> Result<Decoded> {
+    let scale = channel_scale.unwrap_or([1.0; 3]);
+    if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+        return Err(Error::invalid(
+            format!("{}: light intensity {scale:?}", path.display()),
+            "intensities must be finite and positive",
+        ));
+    }
+    let img = open_image(path)?;
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let (data, saturated, bit_depth) = match &img {
+        DynamicImage::ImageLuma8(b) => convert(b.as_raw(), 1, false, Some(u8::MAX), scale, 8),
+        DynamicImage::ImageLumaA8(b) => convert(b.as_raw(), 2, false, Some(u8::MAX), scale, 8),
+        DynamicImage::ImageRgb8(b) => convert(b.as_raw(), 3, true, Some(u8::MAX), scale, 8),
+        DynamicImage::ImageRgba8(b) => convert(b.as_raw(), 4, true, Some(u8::MAX), scale, 8),
+        DynamicImage::ImageLuma16(b) => convert(b.as_raw(), 1, false, Some(u16::MAX), scale, 16),
+        DynamicImage::ImageLumaA16(b) => convert(b.as_raw(), 2, false, Some(u16::MAX), scale, 16),
+        DynamicImage::ImageRgb16(b) => convert(b.as_raw(), 3, true, Some(u16::MAX), scale, 16),
+        DynamicImage::ImageRgba16(b) => convert(b.as_raw(), 4, true, Some(u16::MAX), scale, 16),
+        DynamicImage::ImageRgb32F(b) => convert(b.as_raw(), 3, true, None, scale, 32),
+        DynamicImage::ImageRgba32F(b) => convert(b.as_raw(), 4, true, None, scale, 32),
+        other => {
+            return Err(Error::Decode {
+                path: path.to_path_buf(),
+                message: format!("unsupported pixel type {:?}", other.color()),
+            })
+        }
+    };
+    Ok(Decoded {
+        image: Image::from_vec(w, h, data)?,
+        bit_depth,
+        saturated,
+    })
+}
+
+/// A sample type of a decoded image, with its full scale.
+trait Sample: Copy + PartialEq {
+    const FULL: f32;
+    fn value(self) -> f32;
+}
+impl Sample for u8 {
+    const FULL: f32 = 255.0;
+    fn value(self) -> f32 {
+        self as f32
+    }
+}
+impl Sample for u16 {
+    const FULL: f32 = 65535.0;
+    fn value(self) -> f32 {
+        self as f32
+    }
+}
+impl Sample for f32 {
+    const FULL: f32 = 1.0;
+    fn value(self) -> f32 {
+        self
+    }
+}
+
+/// Interleaved samples (`channels` per pixel, colour first, alpha ignored) → luminance
+/// in [0, 1] and per-pixel saturation flags.
+fn convert<T: Sample>(
+    raw: &[T],
+    channels: usize,
+    color: bool,
+    full: Option<T>,
+    scale: [f32; 3],
+    bit_depth: u8,
+) -> (Vec<f32>, Vec<bool>, u8) {
+    let n = raw.len() / channels;
+    let mut out = Vec::with_capacity(n);
+    let mut sat = Vec::with_capacity(n);
+    let used = if color { 3 } else { 1 };
+    // Divisors rather than reciprocal weights, so that an integer sample k comes back
+    // as exactly k / full (the value the writers quantised).
+    let divisors: [f32; 3] = if color {
+        std::array::from_fn(|i| T::FULL * scale[i])
+    } else if scale[0] == scale[1] && scale[1] == scale[2] {
+        [T::FULL * scale[0], 1.0, 1.0]
+    } else {
+        let lum = LUMA[0] * scale[0] + LUMA[1] * scale[1] + LUMA[2] * scale[2];
+        [T::FULL * lum, 1.0, 1.0]
+    };
+    let weights = if color { LUMA } else { [1.0, 0.0, 0.0] };
+    for px in raw.chunks_exact(channels) {
+        let mut y = 0.0;
+        for i in 0..used {
+            y += weights[i] * (px[i].value() / divisors[i]);
+        }
+        out.push(y);
+        sat.push(full.is_some_and(|f| px[..used].contains(&f)));
+    }
+    (out, sat, bit_depth)
+}
+
+/// Read a mask image (PNG/TIFF, any pixel type): a pixel is inside when any colour
+/// channel is non-zero.
+pub fn read_mask(path: &Path) -> Result<Mask> {
+    let d = decode_gray(path, None)?;
+    Ok(d.image.map(|&v| v > 0.0))
+}
+
+/// Read a mask from a `.npy` file ([`read_mask_npy`](super::read_mask_npy)) or from
+/// an image ([`read_mask`]), chosen by the extension.
+pub fn read_mask_any(path: &Path) -> Result<Mask> {
+    let is_npy = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("npy"));
+    if is_npy {
+        super::read_mask_npy(path)
+    } else {
+        read_mask(path)
+    }
+}
+
+/// Read a normal map written by [`write_normals_png`]: n = 2c − 1, normalised; black
+/// pixels (all channels 0) are unknown and come back as `[0, 0, 0]`.
+pub fn read_normals_png(path: &Path) -> Result<NormalMap> {
+    let img = open_image(path)?.into_rgb32f();
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let data = img
+        .pixels()
+        .map(|p| {
+            if p.0 == [0.0; 3] {
+                [0.0; 3]
+            } else {
+                crate::image::normalize(p.0.map(|c| 2.0 * c - 1.0))
+            }
+        })
+        .collect();
+    Image::from_vec(w, h, data)
+}
+
+/// Encode a PNG from raw subpixels and write it atomically.
+pub(crate) fn save_png<P>(
+    path: &Path,
+    width: usize,
+    height: usize,
+    data: Vec<P::Subpixel>,
+) -> Result<()>
+where
+    P: image::Pixel + image::PixelWithColorType,
+    [P::Subpixel]: image::EncodableLayout,
+{
+    let too_big = || {
+        Error::invalid(
+            format!("{}: image of {width}x{height} pixels", path.display()),
+            "PNG images must be smaller than 2^32 pixels on each side",
+        )
+    };
+    let (w, h) = (
+        u32::try_from(width).map_err(|_| too_big())?,
+        u32::try_from(height).map_err(|_| too_big())?,
+    );
+    if w == 0 || h == 0 {
+        return Err(Error::invalid(
+            format!("{}: image of {width}x{height} pixels", path.display()),
+            "a PNG needs at least one pixel; nothing to write",
+        ));
+    }
+    let buf = ImageBuffer::<P, Vec<P::Subpixel>>::from_raw(w, h, data).ok_or_else(too_big)?;
+    write_atomic(path, |out| {
+        buf.write_with_encoder(PngEncoder::new(out))
+            .map_err(|e| encode_error(path, e))
+    })
+}
+
+fn check_mask(mask: Option<&Mask>, width: usize, height: usize, what: &str) -> Result<()> {
+    match mask {
+        Some(m) => m.check_size(width, height, what),
+        None => Ok(()),
+    }
+}
+
+fn inside(mask: Option<&Mask>, i: usize) -> bool {
+    mask.is_none_or(|m| m.data[i])
+}
+
+/// Write a normal map as a 16-bit RGB PNG with c = (n + 1)/2 per channel. Pixels
+/// outside `mask`, NaN or zero normals are written black (0, 0, 0).
+pub fn write_normals_png(path: &Path, normals: &NormalMap, mask: Option<&Mask>) -> Result<()> {
+    check_mask(
+        mask,
+        normals.width,
+        normals.height,
+        "mask of the normal PNG",
+    )?;
+    let mut data = Vec::with_capacity(normals.len() * 3);
+    for (i, n) in normals.data.iter().enumerate() {
+        let valid = inside(mask, i) && n.iter().all(|v| v.is_finite()) && *n != [0.0; 3];
+        for &v in n {
+            let c = if valid { (v + 1.0) * 0.5 } else { 0.0 };
+            data.push(quantize(c, 65535.0) as u16);
+        }
+    }
+    save_png::<Rgb<u16>>(path, normals.width, normals.height, data)
+}
+
+/// Round `v` in [0, 1] to an integer of full scale `full`, clamping; NaN → 0.
+fn quantize(v: f32, full: f32) -> u32 {
+    if v.is_nan() {
+        return 0;
+    }
+    (v.clamp(0.0, 1.0) * full).round() as u32
+}
+
+/// Write a gray image as 16-bit PNG, mapping `lo` → 0 and `hi` → 65535 (clamped;
+/// NaN → 0). With `lo = 0, hi = 1` a [0, 1] image is stored exactly to 1/65535.
+pub fn write_gray_png_range(path: &Path, img: &GrayImage, lo: f32, hi: f32) -> Result<()> {
+    if !(lo.is_finite() && hi.is_finite() && hi > lo) {
+        return Err(Error::invalid(
+            format!("{}: value range {lo}..{hi}", path.display()),
+            "the range must be finite with hi > lo",
+        ));
+    }
+    let data = img
+        .data
+        .iter()
+        .map(|&v| quantize((v - lo) / (hi - lo), 65535.0) as u16)
+        .collect();
+    save_png::<Luma<u16>>(path, img.width, img.height, data)
+}
+
+/// Write a gray image (albedo, confidence, ...) as 16-bit PNG scaled automatically:
+/// min(0, smallest finite value) → 0 and the largest finite value → 65535.
+pub fn write_gray_png(path: &Path, img: &GrayImage) -> Result<()> {
+    let (lo, hi) = finite_range(img.data.iter().copied()).unwrap_or((0.0, 1.0));
+    let lo = lo.min(0.0);
+    let hi = if hi > lo { hi } else { lo + 1.0 };
+    write_gray_png_range(path, img, lo, hi)
+}
+
+/// Smallest and largest finite value, if any.
+fn finite_range(values: impl Iterator<Item = f32>) -> Option<(f32, f32)> {
+    values
+        .filter(|v| v.is_finite())
+        .fold(None, |acc, v| match acc {
+            None => Some((v, v)),
+            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
+        })
+}
+
+/// Write a mask as an 8-bit gray PNG (255 inside, 0 outside).
+pub fn write_mask_png(path: &Path, mask: &Mask) -> Result<()> {
+    let data = mask
+        .data
+        .iter()
+        .map(|&b| if b { 255u8 } else { 0 })
+        .collect();
+    save_png::<Luma<u8>>(path, mask.width, mask.height, data)
+}
+
+/// Turbo colour map (Mikhailov 2019, polynomial fit) of t in [0, 1] → 8-bit RGB.
+pub fn turbo(t: f32) -> [u8; 3] {
+    let t = t.clamp(0.0, 1.0) as f64;
+    let poly = |c: [f64; 6]| c[0] + t * (c[1] + t * (c[2] + t * (c[3] + t * (c[4] + t * c[5]))));
+    let r = poly([
+        0.13572138,
+        4.6153926,
+        -42.66032258,
+        132.13108234,
+        -152.94239396,
+        59.28637943,
+    ]);
+    let g = poly([
+        0.09140261,
+        2.19418839,
+        4.84296658,
+        -14.18503333,
+        4.27729857,
+        2.82956604,
+    ]);
+    let b = poly([
+        0.1066733,
+        12.64194608,
+        -60.58204836,
+        110.36276771,
+        -89.90310912,
+        27.34824973,
+    ]);
+    [r, g, b].map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+}
+
+/// Write a false-colour picture (turbo map, 8-bit RGB) of `img`: `range` (lo, hi) maps
+/// to the ends of the colour map, by default the finite values inside the mask.
+/// NaN and pixels outside `mask` are black.
+pub fn write_colormap_png(
+    path: &Path,
+    img: &GrayImage,
+    mask: Option<&Mask>,
+    range: Option<(f32, f32)>,
+) -> Result<()> {
+    check_mask(mask, img.width, img.height, "mask of the colour picture")?;
+    let inside_values = img
+        .data
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| inside(mask, i))
+        .map(|(_, &v)| v);
+    let (lo, hi) = range
+        .or_else(|| finite_range(inside_values))
+        .unwrap_or((0.0, 1.0));
+    let span = if hi > lo { hi - lo } else { 1.0 };
+    let mut data = Vec::with_capacity(img.len() * 3);
+    for (i, &v) in img.data.iter().enumerate() {
+        let rgb = if inside(mask, i) && v.is_finite() {
+            turbo((v - lo) / span)
+        } else {
+            [0; 3]
+        };
+        data.extend_from_slice(&rgb);
+    }
+    save_png::<Rgb<u8>>(path, img.width, img.height, data)
+}
+
+/// Write a false-colour picture of a depth map (far = blue, near = red), scaled to
+/// the finite depths inside the mask; NaN and outside are black. For looking at only:
+/// keep the `.npy` for numbers.
+pub fn write_depth_png(path: &Path, depth: &GrayImage, mask: Option<&Mask>) -> Result<()> {
+    write_colormap_png(path, depth, mask, None)
+}
