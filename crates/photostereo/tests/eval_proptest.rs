@@ -56,7 +56,12 @@ proptest! {
         let gt = Image::from_vec(w, h, g.iter().map(|v| v[1] * 100.0).collect()).unwrap();
         let mask: Mask = Image::from_vec(w, h, m).unwrap();
         if let Ok(s) = depth_rmse(&est, &gt, &mask) {
-            prop_assert!(s.count > 0 && s.rmse >= 0.0 && s.range >= 0.0 && s.mae <= s.rmse + 1e-9);
+            // MAE <= RMSE up to rounding, which scales with the magnitude of the depths.
+            let scale = est.data.iter().chain(&gt.data)
+                .filter(|v| v.is_finite())
+                .fold(0.0f64, |m, v| m.max(v.abs() as f64));
+            prop_assert!(s.count > 0 && s.rmse >= 0.0 && s.range >= 0.0);
+            prop_assert!(s.mae <= s.rmse + 1e-12 * (1.0 + scale), "{:?}", s);
         }
         // Against itself the RMSE is zero wherever it is defined.
         if let Ok(s) = depth_rmse(&gt, &gt, &mask) {
