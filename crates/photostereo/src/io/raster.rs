@@ -276,7 +276,9 @@ pub fn write_gray_png_range(path: &Path, img: &GrayImage, lo: f32, hi: f32) -> R
 pub fn write_gray_png(path: &Path, img: &GrayImage) -> Result<()> {
     let (lo, hi) = finite_range(img.data.iter().copied()).unwrap_or((0.0, 1.0));
     let lo = lo.min(0.0);
-    let hi = if hi > lo { hi } else { lo + 1.0 };
+    // A constant image (lo <= 0 here): widen the range by at least 1 and by |lo|,
+    // so that the range stays non-empty for huge values too.
+    let hi = if hi > lo { hi } else { lo + lo.abs().max(1.0) };
     write_gray_png_range(path, img, lo, hi)
 }
 
