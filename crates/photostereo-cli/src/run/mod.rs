@@ -125,6 +125,9 @@ fn lights(args: &Args, from_dataset: Option<Lights>, global: Global) -> Result<L
         let det = photostereo::sphere::detect(
             &chrome.stack,
             &photostereo::sphere::DetectOptions {
+                // a mirror sphere's rim barely shows on a dark background: its
+                // silhouette mask, when given, is the better outline
+                mask_outline: chrome.mask.is_some(),
                 mask: chrome.mask.clone(),
                 ..Default::default()
             },

@@ -125,7 +125,16 @@ struct Estimate {
 /// Run the job; `quiet` silences stage lines and progress bars.
 pub fn run(job: &Job, quiet: bool) -> Result<Products> {
     let bar = Bar::new(quiet);
-    let mut st = Stages::new(4, quiet);
+    let has_truth = job.truth.normals.is_some() || job.truth.depth.is_some();
+    let planned = match &job.normals {
+        Normals::Lookup { .. } => 5,
+        Normals::Lambertian {
+            interreflections: false,
+            ..
+        } => 3,
+        Normals::Lambertian { .. } => 2,
+    } + usize::from(has_truth);
+    let mut st = Stages::new(planned, quiet);
     let mut figures = Vec::new();
     let method = job
         .method
@@ -173,7 +182,14 @@ pub fn run(job: &Job, quiet: bool) -> Result<Products> {
             est.albedo.as_ref(),
         )?)
     })?;
-    let accuracy = st.run("accuracy", || accuracy(job, &est.normals, &depth))?;
+    let accuracy = if has_truth {
+        st.run("accuracy", || accuracy(job, &est.normals, &depth))?
+    } else {
+        Accuracy {
+            angular: None,
+            depth: None,
+        }
+    };
     figures.extend(summary_figures(job, &est, &depth, &mesh, method, &accuracy, &ir));
     Ok(Products {
         normals: est.normals,

@@ -22,10 +22,11 @@ main{padding:0 20px 40px}h2{font-size:16px;margin:22px 0 8px}
 .strip{display:flex;gap:6px;overflow-x:auto;padding-bottom:6px}
 .strip figure{margin:0}.strip img{height:96px;image-rendering:auto}
 .grid{display:flex;flex-wrap:wrap;gap:16px}
-.grid figure{margin:0;max-width:420px}.grid img{max-width:420px;width:100%;image-rendering:pixelated}
+.grid figure{margin:0}.grid img{width:300px;border:1px solid #ccc;image-rendering:pixelated}
+.grid img.plot{width:auto;max-width:820px;image-rendering:auto}
 figcaption{font-size:12px;color:#444}
 .legend{display:flex;align-items:center;gap:6px;font-size:11px;color:#444}
-.legend img{height:10px;width:160px}
+.legend img{height:10px;width:160px;border:0}
 table{border-collapse:collapse}td{padding:3px 12px 3px 0;border-bottom:1px solid #ddd}
 td:first-child{color:#555}#ps-errors{color:#b00}
 "#;
@@ -166,13 +167,13 @@ fn figures_section(s: &mut String, r: &Report, section: Section, title: &str) ->
     }
     let _ = writeln!(s, "<h2>{}</h2>\n<div class=\"grid\">", esc(title));
     for f in figs {
-        let uri = match &f.picture {
-            Picture::Raster(rgb) => rgb_uri(rgb)?,
-            Picture::Png(bytes) => data_uri(bytes),
+        let (uri, class) = match &f.picture {
+            Picture::Raster(rgb) => (rgb_uri(rgb)?, "map"),
+            Picture::Png(bytes) => (data_uri(bytes), "plot"),
         };
         let _ = write!(
             s,
-            "<figure><img src=\"{uri}\" alt=\"{c}\"><figcaption>{c}</figcaption>",
+            "<figure><img class=\"{class}\" src=\"{uri}\" alt=\"{c}\"><figcaption>{c}</figcaption>",
             c = esc(&f.caption)
         );
         if let Some(legend) = &f.legend {

@@ -53,9 +53,9 @@ function start() {
   };
   home();
   scene.add(camera);
-  scene.add(new THREE.HemisphereLight(0xffffff, 0x30343c, 0.9));
-  const head = new THREE.DirectionalLight(0xffffff, 2.2);
-  head.position.set(0.4, 0.6, 1.0);
+  scene.add(new THREE.HemisphereLight(0xffffff, 0x30343c, 0.6));
+  const head = new THREE.DirectionalLight(0xffffff, 2.6);
+  head.position.set(-0.5, 0.7, 0.8);
   camera.add(head);
   camera.add(head.target);
   head.target.position.set(0, 0, -1);
