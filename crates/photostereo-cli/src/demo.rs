@@ -19,7 +19,9 @@ use crate::Global;
 
 /// Arguments of `photostereo demo`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example:\n  photostereo demo -o out/demo   # then open out/demo/vase/report.html")]
+#[command(
+    after_help = "Example:\n  photostereo demo -o out/demo   # then open out/demo/vase/report.html"
+)]
 pub struct Args {
     /// Output directory (created): one sub-directory per scene with its report.
     #[arg(short, long, default_value = "demo-out")]
@@ -53,7 +55,10 @@ pub fn run(args: Args, global: Global) -> Result<()> {
 
 /// Shiny plastic sphere + vase, calibration-based; returns the summary lines.
 fn shiny_vase(out: &Path, size: usize, global: Global) -> Result<Vec<String>> {
-    say(global, "rendering a shiny calibration sphere and a shiny vase");
+    say(
+        global,
+        "rendering a shiny calibration sphere and a shiny vase",
+    );
     let opts = SceneOptions {
         width: size,
         height: size,
@@ -81,10 +86,23 @@ fn shiny_vase(out: &Path, size: usize, global: Global) -> Result<Vec<String>> {
     };
     let p = pipeline::run(&job, global.quiet)?;
     let extra = [("render".to_string(), render_s)];
-    outputs::write_all(out, "demo: shiny vase", "calibration-based photometric stereo (GGX plastic sphere, 16 lights)", &job, &p, &extra)?;
-    let mut lines = vec![format!("shiny vase {size}×{size}, 16 lights, lookup table from a sphere of radius {:.0} px:", 0.4 * size as f64)];
+    outputs::write_all(
+        out,
+        "demo: shiny vase",
+        "calibration-based photometric stereo (GGX plastic sphere, 16 lights)",
+        &job,
+        &p,
+        &extra,
+    )?;
+    let mut lines = vec![format!(
+        "shiny vase {size}×{size}, 16 lights, lookup table from a sphere of radius {:.0} px:",
+        0.4 * size as f64
+    )];
     if let Some((st, _)) = &p.accuracy.angular {
-        lines.push(format!("  normals: mean angular error {:.3}°, median {:.3}°", st.mean, st.median));
+        lines.push(format!(
+            "  normals: mean angular error {:.3}°, median {:.3}°",
+            st.mean, st.median
+        ));
     }
     if let Some((st, _)) = &p.accuracy.depth {
         lines.push(format!(
@@ -111,7 +129,8 @@ fn lambertian_bowl(out: &Path, size: usize, global: Global) -> Result<Vec<String
         cast_shadows: true,
         ..Default::default()
     };
-    let scene = photostereo::interreflect::render_with_interreflections(&opts, &Default::default())?;
+    let scene =
+        photostereo::interreflect::render_with_interreflections(&opts, &Default::default())?;
     let render_s = t.elapsed().as_secs_f64();
     let truth_depth = pipeline::depth_range(&scene.depth, &scene.mask);
     let job = Job {
@@ -129,8 +148,17 @@ fn lambertian_bowl(out: &Path, size: usize, global: Global) -> Result<Vec<String
     };
     let p = pipeline::run(&job, global.quiet)?;
     let extra = [("render".to_string(), render_s)];
-    outputs::write_all(out, "demo: Lambertian bowl", "Lambertian photometric stereo with interreflection removal (Nayar, Ikeuchi & Kanade 1991)", &job, &p, &extra)?;
-    let mut lines = vec![format!("Lambertian bowl {size}×{size} (albedo 0.8) with interreflections:")];
+    outputs::write_all(
+        out,
+        "demo: Lambertian bowl",
+        "Lambertian photometric stereo with interreflection removal (Nayar, Ikeuchi & Kanade 1991)",
+        &job,
+        &p,
+        &extra,
+    )?;
+    let mut lines = vec![format!(
+        "Lambertian bowl {size}×{size} (albedo 0.8) with interreflections:"
+    )];
     if let Some(ir) = &p.interreflections {
         let pct = |d: f32| 100.0 * (d - truth_depth) / truth_depth;
         lines.push(format!(
@@ -139,6 +167,10 @@ fn lambertian_bowl(out: &Path, size: usize, global: Global) -> Result<Vec<String
             pct(ir.depth_before),
             ir.depth_after,
             pct(ir.depth_after)
+        ));
+        lines.push(format!(
+            "  mean albedo: true 0.800; plain {:.3}; after {:.3}",
+            ir.albedo_before, ir.albedo_after
         ));
         lines.push(format!("  {}", ir.summary));
     }

@@ -274,3 +274,26 @@ fn synthetic_report_shows_a_shaded_surface_without_errors() {
         "the browser log missed the error:\n{log}"
     );
 }
+
+/// The README's first command: `photostereo demo`, then both of its reports in the browser.
+#[test]
+fn demo_reports_show_shaded_surfaces_without_errors() {
+    let Some(browser) = chromium() else {
+        eprintln!("SKIP browser test: no chromium found (apt-get install chromium, or set PHOTOSTEREO_CHROMIUM)");
+        return;
+    };
+    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("demo");
+    let _ = std::fs::remove_dir_all(&out);
+    let status = Command::new(env!("CARGO_BIN_EXE_photostereo"))
+        .args(["--quiet", "demo", "-o"])
+        .arg(&out)
+        .status()
+        .expect("run photostereo demo");
+    assert!(status.success(), "photostereo demo failed");
+    for scene in ["vase", "bowl"] {
+        let page = out.join(scene).join("report.html");
+        assert!(page.is_file(), "no report at {}", page.display());
+        let seen = open(&browser, &page, &format!("demo-{scene}"));
+        check_rendered(&seen, &format!("demo {scene} report"));
+    }
+}

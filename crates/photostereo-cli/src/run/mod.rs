@@ -168,12 +168,18 @@ fn dataset_name(dir: &Path) -> String {
         .as_deref()
         .unwrap_or(dir)
         .file_name()
-        .map_or_else(|| dir.display().to_string(), |n| n.to_string_lossy().into_owned())
+        .map_or_else(
+            || dir.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        )
 }
 
 fn subtitle(args: &Args) -> String {
     match (&args.sphere, &args.chrome, args.interreflections) {
-        (Some(s), _, _) => format!("calibration-based photometric stereo, sphere {}", s.display()),
+        (Some(s), _, _) => format!(
+            "calibration-based photometric stereo, sphere {}",
+            s.display()
+        ),
         (None, Some(c), ir) => format!(
             "Lambertian photometric stereo, lights from the chrome sphere {}{}",
             c.display(),

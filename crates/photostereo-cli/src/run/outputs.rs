@@ -18,8 +18,7 @@ pub fn write_all(
     p: &Products,
     extra_stages: &[(String, f64)],
 ) -> Result<PathBuf> {
-    std::fs::create_dir_all(out)
-        .map_err(|e| photostereo::Error::io(out.to_path_buf(), e))?;
+    std::fs::create_dir_all(out).map_err(|e| photostereo::Error::io(out.to_path_buf(), e))?;
     let mask = &job.mask;
     io::write_normals(&out.join("normals.npy"), &p.normals)?;
     io::write_normals_png(&out.join("normals.png"), &p.normals, Some(mask))?;
@@ -51,7 +50,10 @@ pub fn write_all(
     io::write_text(&report_path, &html)?;
     let mut stages: Vec<(String, f64)> = extra_stages.to_vec();
     stages.extend(p.stages.iter().cloned());
-    io::write_text(&out.join("run.json"), &run_json(title, p, &stages).to_string())?;
+    io::write_text(
+        &out.join("run.json"),
+        &run_json(title, p, &stages).to_string(),
+    )?;
     Ok(report_path)
 }
 
@@ -83,6 +85,8 @@ pub fn run_json(title: &str, p: &Products, stages: &[(String, f64)]) -> Value {
         v["interreflections"] = json!({
             "depth_before_px": ir.depth_before,
             "depth_after_px": ir.depth_after,
+            "mean_albedo_before": ir.albedo_before,
+            "mean_albedo_after": ir.albedo_after,
             "iterations": ir.iterations,
             "summary": ir.summary,
         });
@@ -115,16 +119,32 @@ pub fn build_report(title: &str, subtitle: &str, job: &Job, p: &Products) -> Res
     }
     if let Some((st, map)) = &p.accuracy.angular {
         let max = (st.mean * 4.0).clamp(1.0, 30.0) as f32;
-        r.error_map("angular error of the normals", map, mask, max.round().max(1.0), "°")?;
+        r.error_map(
+            "angular error of the normals",
+            map,
+            mask,
+            max.round().max(1.0),
+            "°",
+        )?;
     }
     if let Some((st, map)) = &p.accuracy.depth {
         let abs = map.map(|v| v.abs());
         let max = (st.rmse * 3.0).max(0.01) as f32;
-        r.error_map("|depth error| after offset", &abs, mask, round_nice(max), "px")?;
+        r.error_map(
+            "|depth error| after offset",
+            &abs,
+            mask,
+            round_nice(max),
+            "px",
+        )?;
     }
     if let Some(ir) = &p.interreflections {
         for (name, png) in &ir.plots {
-            r.png(Section::Interreflections, &name.replace(".png", ""), png.clone())?;
+            r.png(
+                Section::Interreflections,
+                &name.replace(".png", ""),
+                png.clone(),
+            )?;
         }
     }
     for (k, v) in &p.figures {
@@ -139,7 +159,14 @@ pub fn build_report(title: &str, subtitle: &str, job: &Job, p: &Products) -> Res
 fn round_nice(x: f32) -> f32 {
     let e = 10f32.powf(x.log10().floor());
     let m = x / e;
-    let n = if m <= 1.0 { 1.0 } else if m <= 2.0 { 2.0 } else if m <= 5.0 { 5.0 } else { 10.0 };
+    let n = if m <= 1.0 {
+        1.0
+    } else if m <= 2.0 {
+        2.0
+    } else if m <= 5.0 {
+        5.0
+    } else {
+        10.0
+    };
     n * e
 }
-

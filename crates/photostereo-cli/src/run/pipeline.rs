@@ -57,6 +57,9 @@ pub struct Interreflections {
     /// and of the kept iterate.
     pub depth_before: f32,
     pub depth_after: f32,
+    /// Mean albedo over the mask of the raw reconstruction and of the kept iterate.
+    pub albedo_before: f32,
+    pub albedo_after: f32,
 }
 
 /// Accuracy against ground truth.
@@ -162,7 +165,14 @@ pub fn run(job: &Job, quiet: bool) -> Result<Products> {
             interreflections: true,
         } => {
             let (nik, est) = st.run("interreflection removal", || {
-                nik(&job.target, &job.mask, lights, method, job.truth.depth.as_ref(), &bar)
+                nik(
+                    &job.target,
+                    &job.mask,
+                    lights,
+                    method,
+                    job.truth.depth.as_ref(),
+                    &bar,
+                )
             })?;
             ir = Some(nik);
             est
@@ -171,7 +181,13 @@ pub fn run(job: &Job, quiet: bool) -> Result<Products> {
     let depth = match est.depth.clone() {
         Some(d) => d,
         None => st.run("integration", || {
-            integrate_normals(&est.normals, &job.mask, est.confidence.as_ref(), method, &bar)
+            integrate_normals(
+                &est.normals,
+                &job.mask,
+                est.confidence.as_ref(),
+                method,
+                &bar,
+            )
         })?,
     };
     let mesh = st.run("mesh", || {
@@ -190,7 +206,9 @@ pub fn run(job: &Job, quiet: bool) -> Result<Products> {
             depth: None,
         }
     };
-    figures.extend(summary_figures(job, &est, &depth, &mesh, method, &accuracy, &ir));
+    figures.extend(summary_figures(
+        job, &est, &depth, &mesh, method, &accuracy, &ir,
+    ));
     Ok(Products {
         normals: est.normals,
         albedo: est.albedo,
@@ -272,7 +290,9 @@ fn integrate_normals(
 ) -> Result<DepthMap> {
     let opts = integrate::Options {
         method,
-        weights: confidence.filter(|_| method == integrate::Method::Lsq).cloned(),
+        weights: confidence
+            .filter(|_| method == integrate::Method::Lsq)
+            .cloned(),
         ..Default::default()
     };
     Ok(integrate::solve_with_progress(normals, mask, &opts, bar)?.depth)
@@ -286,21 +306,9 @@ fn nik(
     truth: Option<&DepthMap>,
     bar: &Bar,
 ) -> Result<(Interreflections, Estimate)> {
-    let reconstruct = |images: &ImageStack| -> photostereo::Result<interreflect::Reconstruction> {
-        let ps = lambertian::solve(images, mask, lights, &lambertian::Options::default())?;
-        let opts = integrate::Options {
-            method,
-            ..Default::default()
-        };
-        let depth = integrate::solve(&ps.normals, mask, &opts)?.depth;
-        Ok(interreflect::Reconstruction {
-            normals: ps.normals,
-            albedo: ps.albedo,
-            depth,
-        })
-    };
-    let opts = interreflect::NikOptions::default();
-    let out = interreflect::iterate(raw, mask, &opts, &reconstruct, bar)?;
+    let mut opts = interreflect::NikOptions::default();
+    opts.integrate.method = method;
+    let out = interreflect::solve(raw, mask, lights, &opts, bar)?;
     let row = interreflect::plot::middle_row(mask).unwrap_or(mask.height / 2);
     let plots = vec![
         (
@@ -320,6 +328,8 @@ fn nik(
         iterations: out.iterations.len() - 1,
         depth_before: out.iterations[0].depth_range,
         depth_after: out.iterations[out.best].depth_range,
+        albedo_before: out.iterations[0].mean_albedo,
+        albedo_after: out.iterations[out.best].mean_albedo,
     };
     let est = Estimate {
         normals: best.normals,
@@ -354,7 +364,9 @@ pub fn masked_mean(img: &GrayImage, mask: &Mask) -> f32 {
         .iter()
         .zip(&mask.data)
         .filter(|(v, &m)| m && v.is_finite())
-        .fold((0.0f64, 0usize), |(s, n), (v, _)| (s + f64::from(*v), n + 1));
+        .fold((0.0f64, 0usize), |(s, n), (v, _)| {
+            (s + f64::from(*v), n + 1)
+        });
     if n == 0 {
         f32::NAN
     } else {
@@ -406,7 +418,10 @@ fn summary_figures(
 ) -> Vec<(String, String)> {
     let s = &job.target;
     let mut f = vec![
-        ("images".to_string(), format!("{} of {}×{}", s.k, s.width, s.height)),
+        (
+            "images".to_string(),
+            format!("{} of {}×{}", s.k, s.width, s.height),
+        ),
         ("pixels in the mask".into(), job.mask.count().to_string()),
         ("integrator".into(), method.name().to_string()),
         (
@@ -415,7 +430,11 @@ fn summary_figures(
         ),
         (
             "mesh".into(),
-            format!("{} vertices, {} triangles", mesh.vertices.len(), mesh.faces.len()),
+            format!(
+                "{} vertices, {} triangles",
+                mesh.vertices.len(),
+                mesh.faces.len()
+            ),
         ),
     ];
     if let Some(c) = &est.confidence {
@@ -428,12 +447,20 @@ fn summary_figures(
     }
     if let Some((st, _)) = &acc.angular {
         f.push(("mean angular error (°)".into(), format!("{:.3}", st.mean)));
-        f.push(("median angular error (°)".into(), format!("{:.3}", st.median)));
+        f.push((
+            "median angular error (°)".into(),
+            format!("{:.3}", st.median),
+        ));
     }
     if let Some((st, _)) = &acc.depth {
         f.push((
             "depth RMSE after offset (px)".into(),
-            format!("{:.3} ({:.2}% of the range {:.1})", st.rmse, 100.0 * st.rmse / st.range.max(1e-9), st.range),
+            format!(
+                "{:.3} ({:.2}% of the range {:.1})",
+                st.rmse,
+                100.0 * st.rmse / st.range.max(1e-9),
+                st.range
+            ),
         ));
     }
     if let Some(ir) = ir {
@@ -441,6 +468,10 @@ fn summary_figures(
         f.push((
             "concavity depth before → after (px)".into(),
             format!("{:.2} → {:.2}", ir.depth_before, ir.depth_after),
+        ));
+        f.push((
+            "mean albedo before → after".into(),
+            format!("{:.3} → {:.3}", ir.albedo_before, ir.albedo_after),
         ));
     }
     f

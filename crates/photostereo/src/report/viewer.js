@@ -47,15 +47,15 @@ function start() {
   const camera = new THREE.PerspectiveCamera(30, box.clientWidth / box.clientHeight, data.radius * 0.01, data.radius * 20);
   const dist = data.radius / Math.sin((30 / 2) * Math.PI / 180) * 1.05;
   const home = () => {
-    camera.position.set(c.x + 0.28 * dist, c.y - 0.38 * dist, c.z + 0.88 * dist);
+    camera.position.set(c.x + 0.42 * dist, c.y - 0.5 * dist, c.z + 0.76 * dist);
     camera.up.set(0, 1, 0);
     camera.lookAt(c);
   };
   home();
   scene.add(camera);
-  scene.add(new THREE.HemisphereLight(0xffffff, 0x30343c, 0.6));
-  const head = new THREE.DirectionalLight(0xffffff, 2.6);
-  head.position.set(-0.5, 0.7, 0.8);
+  scene.add(new THREE.HemisphereLight(0xffffff, 0x30343c, 0.45));
+  const head = new THREE.DirectionalLight(0xffffff, 2.4);
+  head.position.set(-0.7, 0.6, 0.45);
   camera.add(head);
   camera.add(head.target);
   head.target.position.set(0, 0, -1);

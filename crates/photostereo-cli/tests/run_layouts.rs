@@ -1,0 +1,224 @@
+//! `photostereo run` on synthetic datasets written in the DiLiGenT layout, with and without
+//! `filenames.txt`, `mask.png` and `light_intensities.txt`, Lambertian and lookup-table;
+//! accuracy read back from `run.json` against the ground truth written beside the images.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use photostereo::image::{ImageStack, Lights};
+use photostereo::synth::{self, Material, SceneOptions, Shape, ShapeKind};
+use photostereo::{io, Mask};
+
+const SIZE: usize = 96;
+
+fn tmp(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("run-layouts")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn scene(material: Material) -> SceneOptions {
+    SceneOptions {
+        width: SIZE,
+        height: SIZE,
+        shape: Shape::preset(ShapeKind::Blob, SIZE, SIZE),
+        material,
+        lights: synth::default_lights(12),
+        ..Default::default()
+    }
+}
+
+/// Write a rendered scene as a dataset with ground truth; lights with intensities
+/// `gains` (the images are multiplied by them, as a camera would see).
+fn write_scene(dir: &Path, opts: &SceneOptions, gains: Option<&[f32]>, mask: bool) -> Mask {
+    let s = synth::render(opts).unwrap();
+    let mut stack: ImageStack = s.stack.clone();
+    let mut lights: Lights = s.lights.clone();
+    if let Some(g) = gains {
+        for px in stack.data.chunks_mut(stack.k) {
+            for (v, gi) in px.iter_mut().zip(g) {
+                *v *= gi;
+            }
+        }
+        lights.intensities = g.to_vec();
+    }
+    io::write_dataset(dir, &stack, &lights, mask.then_some(&s.mask), 16).unwrap();
+    io::write_normals(&dir.join("normal_gt.npy"), &s.normals).unwrap();
+    io::write_gray_npy(&dir.join("depth_gt.npy"), &s.depth).unwrap();
+    s.mask
+}
+
+fn run(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_photostereo"))
+        .arg("--quiet")
+        .arg("run")
+        .args(args)
+        .output()
+        .expect("start photostereo");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn run_json(out: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(out.join("run.json")).expect("run.json written");
+    serde_json::from_str(&text).unwrap()
+}
+
+fn check_products(out: &Path) {
+    for f in [
+        "normals.npy",
+        "normals.png",
+        "depth.npy",
+        "depth.png",
+        "mesh.ply",
+        "run.json",
+        "report.html",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing in {}", out.display());
+    }
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(
+        html.contains("id=\"ps-mesh\""),
+        "the report has no 3-D view"
+    );
+}
+
+fn mean_error(out: &Path) -> f64 {
+    run_json(out)["angular_error_deg"]["mean"].as_f64().unwrap()
+}
+
+#[test]
+fn lambertian_with_every_optional_file_and_without_each() {
+    let opts = scene(Material::lambertian(0.9));
+    let gains = [
+        0.5, 0.7, 0.9, 1.0, 0.6, 0.8, 1.0, 0.55, 0.75, 0.95, 0.65, 0.85,
+    ];
+    let data = tmp("lambertian");
+    write_scene(&data, &opts, Some(&gains), true);
+    let out = tmp("lambertian-out");
+    let (ok, err) = run(&[
+        "--lambertian",
+        data.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    check_products(&out);
+    let full = mean_error(&out);
+    let json = run_json(&out);
+    assert_eq!(
+        json["integrator"], "lsq",
+        "a mask picks the masked integrator"
+    );
+    assert!(json["stages"].as_array().unwrap().len() >= 4);
+    println!("Lambertian blob with intensities, mask, filenames.txt: mean error {full:.3}°");
+    // noise-free 16-bit Lambertian render of a convex blob: only quantisation remains
+    assert!(full < 0.05, "mean angular error {full}°");
+
+    // without filenames.txt: images found by name, same result
+    std::fs::remove_file(data.join("filenames.txt")).unwrap();
+    let (ok, err) = run(&[
+        "--lambertian",
+        data.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!((mean_error(&out) - full).abs() < 1e-6);
+
+    // without light_intensities.txt the unequal lights bias the normals: clearly worse
+    std::fs::remove_file(data.join("light_intensities.txt")).unwrap();
+    let (ok, err) = run(&[
+        "--lambertian",
+        data.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let biased = mean_error(&out);
+    println!("without light_intensities.txt: {biased:.3}°");
+    assert!(
+        biased > full + 1.0,
+        "ignoring the intensities should hurt: {biased}° vs {full}°"
+    );
+
+    // without mask.png: the whole rectangle, DCT integration, still a report
+    std::fs::remove_file(data.join("mask.png")).unwrap();
+    let (ok, err) = run(&[
+        "--lambertian",
+        data.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    check_products(&out);
+    assert_eq!(run_json(&out)["integrator"], "dct");
+}
+
+#[test]
+fn lookup_table_from_a_sphere_of_the_same_material() {
+    let opts = scene(Material::shiny_plastic());
+    let data = tmp("shiny");
+    write_scene(&data, &opts, None, true);
+    let sphere = tmp("shiny-sphere");
+    let s = synth::render_calibration_sphere(&opts, 40.0).unwrap();
+    io::write_dataset(&sphere, &s.stack, &s.lights, None, 16).unwrap();
+    // the lookup needs no light directions
+    std::fs::remove_file(data.join("light_directions.txt")).unwrap();
+    std::fs::remove_file(sphere.join("light_directions.txt")).unwrap();
+    let out = tmp("shiny-out");
+    let (ok, err) = run(&[
+        "--sphere",
+        sphere.to_str().unwrap(),
+        data.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    check_products(&out);
+    assert!(out.join("confidence.npy").is_file() && out.join("sphere_overlay.png").is_file());
+    let e = mean_error(&out);
+    let depth = run_json(&out)["depth_error_px"].clone();
+    println!("shiny blob, lookup from a radius-40 sphere: mean error {e:.3}°, depth {depth}");
+    // a 16-bit render, sphere of radius 40 px: sub-degree on the whole mask
+    assert!(e < 1.0, "mean angular error {e}°");
+    let rel = depth["rmse"].as_f64().unwrap() / depth["range"].as_f64().unwrap();
+    assert!(rel < 0.02, "depth RMSE {:.2}% of the range", 100.0 * rel);
+}
+
+#[test]
+fn bad_invocations_say_what_to_do() {
+    let opts = scene(Material::lambertian(0.9));
+    let data = tmp("bad");
+    write_scene(&data, &opts, None, true);
+    let out = tmp("bad-out");
+    let (ok, err) = run(&[data.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(
+        !ok && err.contains("--sphere") && err.contains("--lambertian"),
+        "{err}"
+    );
+    std::fs::remove_file(data.join("light_directions.txt")).unwrap();
+    let (ok, err) = run(&[
+        "--lambertian",
+        data.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok && err.contains("--lights"), "{err}");
+    assert!(
+        !out.join("report.html").exists(),
+        "no partial output after an error"
+    );
+    let (ok, err) = run(&[
+        "--lambertian",
+        "/nonexistent/dir",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok && err.contains("/nonexistent/dir"), "{err}");
+}
