@@ -45,11 +45,11 @@ pub fn write_all(
             io::write_bytes(&out.join(name), png)?;
         }
     }
-    let report_path = out.join("report.html");
-    let html = build_report(title, subtitle, job, p)?;
-    io::write_text(&report_path, &html)?;
     let mut stages: Vec<(String, f64)> = extra_stages.to_vec();
     stages.extend(p.stages.iter().cloned());
+    let report_path = out.join("report.html");
+    let html = build_report(title, subtitle, job, p, &stages)?;
+    io::write_text(&report_path, &html)?;
     io::write_text(
         &out.join("run.json"),
         &run_json(title, p, &stages).to_string(),
@@ -59,7 +59,7 @@ pub fn write_all(
 
 /// `run.json`: per-stage seconds and the figures.
 pub fn run_json(title: &str, p: &Products, stages: &[(String, f64)]) -> Value {
-    let stages: Vec<Value> = stages
+    let stage_list: Vec<Value> = stages
         .iter()
         .map(|(n, s)| json!({"stage": n, "seconds": s}))
         .collect();
@@ -71,8 +71,8 @@ pub fn run_json(title: &str, p: &Products, stages: &[(String, f64)]) -> Value {
     let mut v = json!({
         "dataset": title,
         "integrator": p.method.name(),
-        "stages": stages,
-        "total_seconds": p.stages.iter().map(|s| s.1).sum::<f64>(),
+        "stages": stage_list,
+        "total_seconds": stages.iter().map(|s| s.1).sum::<f64>(),
         "figures": figures,
     });
     if let Some((st, _)) = &p.accuracy.angular {
@@ -99,7 +99,13 @@ fn rgb_png(img: &photostereo::Image<[u8; 3]>) -> Result<Vec<u8>> {
 }
 
 /// The HTML report of a job.
-pub fn build_report(title: &str, subtitle: &str, job: &Job, p: &Products) -> Result<String> {
+pub fn build_report(
+    title: &str,
+    subtitle: &str,
+    job: &Job,
+    p: &Products,
+    stages: &[(String, f64)],
+) -> Result<String> {
     let mask = Some(&job.mask);
     let mut r = Report::new(title);
     r.subtitle(subtitle);
@@ -150,7 +156,7 @@ pub fn build_report(title: &str, subtitle: &str, job: &Job, p: &Products) -> Res
     for (k, v) in &p.figures {
         r.figure(k, v);
     }
-    for (k, s) in &p.stages {
+    for (k, s) in stages {
         r.figure(format!("time: {k}"), format!("{s:.2} s"));
     }
     Ok(r.to_html()?)
