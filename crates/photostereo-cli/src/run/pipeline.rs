@@ -129,73 +129,25 @@ struct Estimate {
 pub fn run(job: &Job, quiet: bool) -> Result<Products> {
     let bar = Bar::new(quiet);
     let has_truth = job.truth.normals.is_some() || job.truth.depth.is_some();
-    let planned = match &job.normals {
-        Normals::Lookup { .. } => 5,
-        Normals::Lambertian {
-            interreflections: false,
-            ..
-        } => 3,
-        Normals::Lambertian { .. } => 2,
-    } + usize::from(has_truth);
-    let mut st = Stages::new(planned, quiet);
-    let mut figures = Vec::new();
+    let mut st = Stages::new(planned_stages(&job.normals) + usize::from(has_truth), quiet);
     let method = job
         .method
         .unwrap_or_else(|| integrate::choose_method(&job.mask));
-    let mut circle = None;
-    let mut ir = None;
-    let est = match &job.normals {
-        Normals::Lookup {
-            sphere,
-            sphere_mask,
-        } => {
-            let (det, est) = lookup(&mut st, &bar, job, sphere, sphere_mask.clone())?;
-            figures.push(("sphere circle (cx, cy, r) px".into(), circle_text(&det)));
-            circle = Some(det);
-            est
-        }
-        Normals::Lambertian {
-            lights,
-            interreflections: false,
-        } => st.run("Lambertian photometric stereo", || {
-            lambertian_normals(&job.target, &job.mask, lights)
-        })?,
-        Normals::Lambertian {
-            lights,
-            interreflections: true,
-        } => {
-            let (nik, est) = st.run("interreflection removal", || {
-                nik(
-                    &job.target,
-                    &job.mask,
-                    lights,
-                    method,
-                    job.truth.depth.as_ref(),
-                    &bar,
-                )
-            })?;
-            ir = Some(nik);
-            est
-        }
-    };
+    let (est, circle, ir) = normals_stage(&mut st, &bar, job, method)?;
     let depth = match est.depth.clone() {
         Some(d) => d,
         None => st.run("integration", || {
-            integrate_normals(
-                &est.normals,
-                &job.mask,
-                est.confidence.as_ref(),
-                method,
-                &bar,
-            )
+            let conf = est.confidence.as_ref();
+            integrate_normals(&est.normals, &job.mask, conf, method, &bar)
         })?,
     };
     let mesh = st.run("mesh", || {
+        let albedo = est.albedo.as_ref();
         Ok(mesh::from_depth(
             &depth,
             &job.mask,
             Some(&est.normals),
-            est.albedo.as_ref(),
+            albedo,
         )?)
     })?;
     let accuracy = if has_truth {
@@ -206,6 +158,10 @@ pub fn run(job: &Job, quiet: bool) -> Result<Products> {
             depth: None,
         }
     };
+    let mut figures = Vec::new();
+    if let Some(det) = &circle {
+        figures.push(("sphere circle (cx, cy, r) px".into(), circle_text(det)));
+    }
     figures.extend(summary_figures(
         job, &est, &depth, &mesh, method, &accuracy, &ir,
     ));
@@ -221,6 +177,62 @@ pub fn run(job: &Job, quiet: bool) -> Result<Products> {
         accuracy,
         stages: st.list,
         figures,
+    })
+}
+
+/// Stages before the accuracy one: normals (1 to 3), integration (unless NIK made the
+/// depth), mesh.
+fn planned_stages(normals: &Normals) -> usize {
+    match normals {
+        Normals::Lookup { .. } => 5,
+        Normals::Lambertian {
+            interreflections: false,
+            ..
+        } => 3,
+        Normals::Lambertian { .. } => 2,
+    }
+}
+
+type NormalsResult = (
+    Estimate,
+    Option<sphere::Detection>,
+    Option<Interreflections>,
+);
+
+/// Normals (and albedo, confidence, and with NIK the depth) by the job's method.
+fn normals_stage(
+    st: &mut Stages,
+    bar: &Bar,
+    job: &Job,
+    method: integrate::Method,
+) -> Result<NormalsResult> {
+    Ok(match &job.normals {
+        Normals::Lookup {
+            sphere,
+            sphere_mask,
+        } => {
+            let (det, est) = lookup(st, bar, job, sphere, sphere_mask.clone())?;
+            (est, Some(det), None)
+        }
+        Normals::Lambertian {
+            lights,
+            interreflections: false,
+        } => {
+            let est = st.run("Lambertian photometric stereo", || {
+                lambertian_normals(&job.target, &job.mask, lights)
+            })?;
+            (est, None, None)
+        }
+        Normals::Lambertian {
+            lights,
+            interreflections: true,
+        } => {
+            let truth = job.truth.depth.as_ref();
+            let (ir, est) = st.run("interreflection removal", || {
+                nik(&job.target, &job.mask, lights, method, truth, bar)
+            })?;
+            (est, None, Some(ir))
+        }
     })
 }
 

@@ -38,6 +38,17 @@ pub struct MeshParts<'a> {
     pub faces: &'a [[u32; 3]],
 }
 
+impl<'a> From<&'a crate::mesh::Mesh> for MeshParts<'a> {
+    fn from(m: &'a crate::mesh::Mesh) -> Self {
+        MeshParts {
+            vertices: &m.vertices,
+            normals: &m.normals,
+            colors: m.colors.as_deref(),
+            faces: &m.faces,
+        }
+    }
+}
+
 /// The mesh as embedded in a report.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ViewerMesh {
