@@ -192,7 +192,7 @@ fn lookup_table_from_a_sphere_of_the_same_material() {
 }
 
 #[test]
-fn bad_invocations_say_what_to_do() {
+fn bad_invocations_say_what_to_do_and_lights_come_from_a_file() {
     let opts = scene(Material::lambertian(0.9));
     let data = tmp("bad");
     write_scene(&data, &opts, None, true);
