@@ -202,7 +202,8 @@ fn bad_invocations_say_what_to_do_and_lights_come_from_a_file() {
         !ok && err.contains("--sphere") && err.contains("--lambertian"),
         "{err}"
     );
-    std::fs::remove_file(data.join("light_directions.txt")).unwrap();
+    let lights = out.with_extension("lights.txt");
+    std::fs::rename(data.join("light_directions.txt"), &lights).unwrap();
     let (ok, err) = run(&[
         "--lambertian",
         data.to_str().unwrap(),
@@ -214,6 +215,17 @@ fn bad_invocations_say_what_to_do_and_lights_come_from_a_file() {
         !out.join("report.html").exists(),
         "no partial output after an error"
     );
+    // the same directions from a file elsewhere
+    let (ok, err) = run(&[
+        "--lambertian",
+        "--lights",
+        lights.to_str().unwrap(),
+        data.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(mean_error(&out) < 0.05);
     let (ok, err) = run(&[
         "--lambertian",
         "/nonexistent/dir",
