@@ -297,3 +297,42 @@ fn demo_reports_show_shaded_surfaces_without_errors() {
         check_rendered(&seen, &format!("demo {scene} report"));
     }
 }
+
+/// `../shared` beside the repository (or `PHOTOSTEREO_SHARED`), where the real photographs are.
+fn shared_dir() -> Option<PathBuf> {
+    let p = match std::env::var_os("PHOTOSTEREO_SHARED") {
+        Some(p) => PathBuf::from(p),
+        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"),
+    };
+    p.join("data/real/buddha").is_dir().then_some(p)
+}
+
+/// Real photographs: Lambertian photometric stereo with lights calibrated from the chrome
+/// sphere gives a surface that the report draws.
+#[test]
+fn real_buddha_report_shows_a_shaded_surface_without_errors() {
+    let Some(browser) = chromium() else {
+        eprintln!("SKIP browser test: no chromium found (apt-get install chromium, or set PHOTOSTEREO_CHROMIUM)");
+        return;
+    };
+    let Some(shared) = shared_dir() else {
+        eprintln!(
+            "SKIP real-photograph test: ../shared/data/real not found (set PHOTOSTEREO_SHARED)"
+        );
+        return;
+    };
+    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("buddha");
+    let _ = std::fs::remove_dir_all(&out);
+    let real = shared.join("data/real");
+    let status = Command::new(env!("CARGO_BIN_EXE_photostereo"))
+        .args(["--quiet", "run", "--lambertian", "--chrome"])
+        .arg(real.join("chrome"))
+        .arg(real.join("buddha"))
+        .arg("-o")
+        .arg(&out)
+        .status()
+        .expect("run photostereo run");
+    assert!(status.success(), "photostereo run on the buddha failed");
+    let seen = open(&browser, &out.join("report.html"), "buddha");
+    check_rendered(&seen, "buddha report");
+}
