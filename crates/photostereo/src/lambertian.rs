@@ -21,8 +21,9 @@
 //!   re-selected least squares in the spirit of Barsky & Petrou (2003) and of the
 //!   rank-based selection of Mukaigawa et al. (2007).
 //!
-//! A pixel left with fewer than `min_lights` samples falls back to all K samples
-//! (plain least squares); a pixel whose b vanishes (black) gets n = (0, 0, 1) and
+//! A pixel left with fewer than `min_lights` samples retries with shadow rejection
+//! only, then takes its `min_lights` brightest positive samples, and only if still
+//! short falls back to all K samples (plain least squares); a pixel whose b vanishes (black) gets n = (0, 0, 1) and
 //! ρ = 0. Every mask pixel therefore gets a unit normal; `used_lights` and
 //! `residual` say how far to trust it.
 //!
@@ -217,6 +218,17 @@ fn fit_pixel(samples: &[f32], eff: &[[f64; 3]], opts: &Options) -> PixelFit {
     let k = samples.len();
     let val = |i: usize| samples[i] as f64;
     let mut sel = initial_selection(samples, opts);
+    if sel.len() < opts.min_lights && opts.reject_highlights {
+        // few lights: keep the brightest ones rather than fall back to all
+        let shadows_only = Options {
+            reject_highlights: false,
+            ..opts.clone()
+        };
+        sel = initial_selection(samples, &shadows_only);
+    }
+    if sel.len() < opts.min_lights {
+        sel = brightest(samples, opts.min_lights);
+    }
     if sel.len() < opts.min_lights {
         sel = (0..k).collect();
     }
@@ -273,6 +285,17 @@ fn initial_selection(samples: &[f32], opts: &Options) -> Vec<usize> {
         let level = opts.shadow_threshold * top;
         order.retain(|&i| samples[i] > level && samples[i] > 0.0);
     }
+    order.sort_unstable();
+    order
+}
+
+/// The `n` brightest positive samples (fewer when fewer are positive).
+fn brightest(samples: &[f32], n: usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..samples.len())
+        .filter(|&i| samples[i].is_finite() && samples[i] > 0.0)
+        .collect();
+    order.sort_by(|&a, &b| samples[b].total_cmp(&samples[a]));
+    order.truncate(n);
     order.sort_unstable();
     order
 }

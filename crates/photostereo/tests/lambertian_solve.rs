@@ -187,3 +187,40 @@ fn coplanar_lights_and_bad_masks_are_refused() {
         Err(Error::EmptyMask { .. })
     ));
 }
+
+#[test]
+fn four_lights_with_one_shadow_stay_exact() {
+    // K = 4: the highlight trimming would leave too few samples where one light is in
+    // attached shadow; the solver must then keep the three lit samples, not use all four.
+    let opts = SceneOptions {
+        width: 96,
+        height: 96,
+        shape: Shape::preset(ShapeKind::Sphere, 96, 96),
+        material: Material::lambertian(0.7),
+        lights: default_lights(4),
+        ..SceneOptions::default()
+    };
+    let scene = render(&opts).unwrap();
+    let out = solve(
+        &scene.stack,
+        &scene.mask,
+        &scene.lights,
+        &Options::default(),
+    )
+    .unwrap();
+    // pixels lit by at least 3 of the 4 lights
+    let lit3 = Mask::from_fn(96, 96, |r, c| {
+        let n = *scene.normals.get(r, c);
+        *scene.mask.get(r, c)
+            && scene
+                .lights
+                .directions
+                .iter()
+                .filter(|l| n[0] * l[0] + n[1] * l[1] + n[2] * l[2] > 0.02)
+                .count()
+                >= 3
+    });
+    let e = mean_error(&out.normals, &scene.normals, &lit3);
+    println!("K=4 Lambertian sphere, pixels lit by >= 3 lights: mean error {e:.4}°");
+    assert!(e < 0.01);
+}
