@@ -36,7 +36,7 @@ mod edges;
 pub mod fit;
 mod overlay;
 
-pub use overlay::overlay;
+pub use overlay::{encode_png, overlay};
 
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, ImageStack, Mask};

@@ -54,3 +54,25 @@ fn percentile(values: &[f32], p: f64) -> f32 {
     let (_, kth, _) = v.select_nth_unstable_by(k, f32::total_cmp);
     *kth
 }
+
+/// Encode an RGB picture (such as an [`overlay`]) as PNG bytes, for
+/// `io::write_bytes` (the library itself writes no files outside `io`).
+pub fn encode_png(img: &Image<[u8; 3]>) -> crate::Result<Vec<u8>> {
+    use image::ImageEncoder;
+    let mut out = Vec::new();
+    let raw: Vec<u8> = img.data.iter().flatten().copied().collect();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(
+            &raw,
+            img.width as u32,
+            img.height as u32,
+            image::ExtendedColorType::Rgb8,
+        )
+        .map_err(|e| {
+            crate::Error::invalid(
+                format!("overlay picture {}x{}", img.width, img.height),
+                format!("PNG encoding failed: {e}"),
+            )
+        })?;
+    Ok(out)
+}
