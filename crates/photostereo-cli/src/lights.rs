@@ -92,6 +92,9 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         lights
     };
     say(table(&data.stack.names, &lights));
+    // everything is computed before the first file is written
+    let png = sphere::encode_png(&sphere::overlay(&det.max_image, &c))?;
+    let overlay_path = sibling(&args.output, "overlay.png");
     io::write_light_directions(&args.output, &lights)?;
     if matte {
         let path = sibling(&args.output, "light_intensities.txt");
@@ -101,8 +104,6 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             path.display()
         ));
     }
-    let overlay_path = sibling(&args.output, "overlay.png");
-    let png = sphere::encode_png(&sphere::overlay(&det.max_image, &c))?;
     io::write_bytes(&overlay_path, &png)?;
     say(format!(
         "light directions written to {}; check the circle in {}",
