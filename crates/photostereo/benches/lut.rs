@@ -28,6 +28,8 @@ fn lookup(c: &mut Criterion) {
             Ok("nearest") => lut::Method::Nearest,
             _ => lut::Method::Refined,
         },
+        candidates: env_or("LUT_CANDIDATES", 4),
+        pca_dims: env_or("LUT_DIMS", 6),
         ..Options::default()
     };
     let (start, cpu0) = (Instant::now(), cpu_seconds());
@@ -58,6 +60,13 @@ fn lookup(c: &mut Criterion) {
         b.iter(|| lut::solve(&target, &mask, &tables, &opts, &NoProgress).expect("solve"))
     });
     group.finish();
+}
+
+fn env_or(name: &str, default: usize) -> usize {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
 }
 
 /// User + system CPU time of this process (Linux `/proc/self/stat`), 0 elsewhere.

@@ -170,6 +170,7 @@ pub fn solve(
         let mut t = vec![0.0f32; k];
         for (c, px) in row.iter_mut().enumerate() {
             if !*mask.get(r, c) {
+                s.warm = None;
                 continue;
             }
             for (dst, &v) in t.iter_mut().zip(stack.pixel(r, c)) {

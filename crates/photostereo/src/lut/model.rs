@@ -38,8 +38,12 @@ pub(crate) struct Scratch {
     pub basis: [Vec<f32>; 2],
     pub grad: [Vec<f32>; 2],
     pub pred: Vec<f32>,
+    /// Jacobian columns ∂p/∂gx (first k) and ∂p/∂gy (last k).
+    pub jac: Vec<f32>,
     /// Table entries to seed the next tree search with (the last pixel's candidates).
     pub seeds: Vec<u32>,
+    /// The previous pixel's solution (coherence shortcut); reset at row starts and gaps.
+    pub warm: Option<super::search::Warm>,
 }
 
 impl Scratch {
@@ -48,7 +52,9 @@ impl Scratch {
             basis: [vec![0.0; k], vec![0.0; k]],
             grad: [vec![0.0; 2 * k], vec![0.0; 2 * k]],
             pred: vec![0.0; k],
+            jac: vec![0.0; 2 * k],
             seeds: Vec::with_capacity(super::index::MAX_CANDIDATES),
+            warm: None,
         }
     }
 }
@@ -189,27 +195,59 @@ impl<'a> Model<'a> {
         t: &[f32],
         w: Option<&[f32]>,
         coef: [f32; 2],
-        s: &Scratch,
+        s: &mut Scratch,
     ) -> [f64; 5] {
-        let (mut h11, mut h12, mut h22, mut g1, mut g2) = (0.0f32, 0.0, 0.0, 0.0, 0.0);
-        let mix = self.is_mix();
-        for i in 0..self.k {
-            let wi = w.map_or(1.0, |w| w[i]);
-            let mut p = coef[0] * s.basis[0][i];
-            let mut jx = coef[0] * s.grad[0][2 * i];
-            let mut jy = coef[0] * s.grad[0][2 * i + 1];
-            if mix {
-                p += coef[1] * s.basis[1][i];
-                jx += coef[1] * s.grad[1][2 * i];
-                jy += coef[1] * s.grad[1][2 * i + 1];
-            }
-            let r = (t[i] - p) * wi;
-            h11 += wi * jx * jx;
-            h12 += wi * jx * jy;
-            h22 += wi * jy * jy;
-            g1 += jx * r;
-            g2 += jy * r;
+        let k = self.k;
+        // model p = Σ c_j B_j and its Jacobian columns, gathered into pred / jac
+        let (jx, jy) = s.jac.split_at_mut(k);
+        let (gx0, gy0) = s.grad[0].split_at(k);
+        for ((((p, x), y), b), (dx, dy)) in s
+            .pred
+            .iter_mut()
+            .zip(jx.iter_mut())
+            .zip(jy.iter_mut())
+            .zip(&s.basis[0])
+            .zip(gx0.iter().zip(gy0))
+        {
+            *p = coef[0] * b;
+            *x = coef[0] * dx;
+            *y = coef[0] * dy;
         }
+        if self.is_mix() {
+            let (gx1, gy1) = s.grad[1].split_at(k);
+            for ((((p, x), y), b), (dx, dy)) in s
+                .pred
+                .iter_mut()
+                .zip(jx.iter_mut())
+                .zip(jy.iter_mut())
+                .zip(&s.basis[1])
+                .zip(gx1.iter().zip(gy1))
+            {
+                *p += coef[1] * b;
+                *x += coef[1] * dx;
+                *y += coef[1] * dy;
+            }
+        }
+        let (p, t, jx, jy) = (&s.pred[..k], &t[..k], &jx[..k], &jy[..k]);
+        let (h11, h12, h22, g1, g2) = match w {
+            None => (
+                lane_sum(k, |i| jx[i] * jx[i]),
+                lane_sum(k, |i| jx[i] * jy[i]),
+                lane_sum(k, |i| jy[i] * jy[i]),
+                lane_sum(k, |i| jx[i] * (t[i] - p[i])),
+                lane_sum(k, |i| jy[i] * (t[i] - p[i])),
+            ),
+            Some(w) => {
+                let w = &w[..k];
+                (
+                    lane_sum(k, |i| w[i] * jx[i] * jx[i]),
+                    lane_sum(k, |i| w[i] * jx[i] * jy[i]),
+                    lane_sum(k, |i| w[i] * jy[i] * jy[i]),
+                    lane_sum(k, |i| w[i] * jx[i] * (t[i] - p[i])),
+                    lane_sum(k, |i| w[i] * jy[i] * (t[i] - p[i])),
+                )
+            }
+        };
         [h11 as f64, h12 as f64, h22 as f64, g1 as f64, g2 as f64]
     }
 
@@ -288,11 +326,33 @@ const NEIGHBOURS: [(f64, f64); 8] = [
     (-1.0, -1.0),
 ];
 
+/// Σ f(i) over 0..n, accumulated in 8 lanes so that the compiler vectorises it.
+#[inline(always)]
+fn lane_sum(n: usize, f: impl Fn(usize) -> f32) -> f32 {
+    let mut acc = [0.0f32; 8];
+    let full = n / 8 * 8;
+    for base in (0..full).step_by(8) {
+        for (l, a) in acc.iter_mut().enumerate() {
+            *a += f(base + l);
+        }
+    }
+    let mut tail = 0.0;
+    for i in full..n {
+        tail += f(i);
+    }
+    acc.iter().sum::<f32>() + tail
+}
+
 #[inline]
 fn dotw(a: &[f32], b: &[f32], w: Option<&[f32]>) -> f32 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
     match w {
-        None => a.iter().zip(b).map(|(x, y)| x * y).sum(),
-        Some(w) => a.iter().zip(b).zip(w).map(|((x, y), w)| x * y * w).sum(),
+        None => lane_sum(n, |i| a[i] * b[i]),
+        Some(w) => {
+            let w = &w[..n];
+            lane_sum(n, |i| a[i] * b[i] * w[i])
+        }
     }
 }
 
@@ -304,18 +364,14 @@ fn dot2(t: &[f32], a: &[f32], w: Option<&[f32]>) -> (f32, f32) {
 
 #[inline]
 fn cost1(t: &[f32], a: &[f32], c: f32, w: Option<&[f32]>) -> f32 {
+    let n = t.len().min(a.len());
+    let (t, a) = (&t[..n], &a[..n]);
     match w {
-        None => t
-            .iter()
-            .zip(a)
-            .map(|(t, a)| (t - c * a) * (t - c * a))
-            .sum(),
-        Some(w) => t
-            .iter()
-            .zip(a)
-            .zip(w)
-            .map(|((t, a), w)| w * (t - c * a) * (t - c * a))
-            .sum(),
+        None => lane_sum(n, |i| (t[i] - c * a[i]) * (t[i] - c * a[i])),
+        Some(w) => {
+            let w = &w[..n];
+            lane_sum(n, |i| w[i] * (t[i] - c * a[i]) * (t[i] - c * a[i]))
+        }
     }
 }
 

@@ -11,6 +11,30 @@ const COARSE_POINTS: usize = 1500;
 /// Coarse candidates kept for the local descent.
 const COARSE_KEEP: usize = 3;
 
+/// Longest run of pixels matched by the coherence shortcut between two tree searches.
+const WARM_RUN: u32 = 16;
+
+/// The previous pixel's solution, for the coherence shortcut.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Warm {
+    pub gx: f64,
+    pub gy: f64,
+    /// Relative residual of the last pixel matched through the tree.
+    pub rel_ref: f32,
+    /// Pixels matched by the shortcut since.
+    pub since_tree: u32,
+}
+
+/// √cost / ‖t‖.
+fn relative(t: &[f32], cost: f32) -> f32 {
+    let norm = t.iter().map(|v| v * v).sum::<f32>().sqrt();
+    if norm > 0.0 {
+        cost.max(0.0).sqrt() / norm
+    } else {
+        f32::INFINITY
+    }
+}
+
 /// Result at one pixel.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct PixelOut {
@@ -105,13 +129,21 @@ impl<'a> Solver<'a> {
             (Some(index), Method::InverseDistance { neighbours }) => {
                 return self.inverse_distance(t, index, neighbours, q, s);
             }
-            (Some(index), method) => {
-                let fit = self.tree_match(t, index, q, s);
-                match method {
-                    Method::Refined => self.model.refine(t, None, fit, self.opts.max_iterations, s),
-                    _ => fit,
+            (Some(index), Method::Refined) => match self.warm_start(t, s) {
+                Some(fit) => fit,
+                None => {
+                    let fit = self.tree_match(t, index, q, s);
+                    let fit = self.model.refine(t, None, fit, self.opts.max_iterations, s);
+                    s.warm = Some(Warm {
+                        gx: fit.gx,
+                        gy: fit.gy,
+                        rel_ref: relative(t, fit.cost),
+                        since_tree: 0,
+                    });
+                    fit
                 }
-            }
+            },
+            (Some(index), _) => self.tree_match(t, index, q, s),
             (None, _) => self.exhaustive(t, None, s),
         };
         w.fill(1.0);
@@ -134,7 +166,38 @@ impl<'a> Solver<'a> {
                 fit = self.exhaustive(t, Some(w), s);
             }
         }
+        match (&mut s.warm, shadowed) {
+            (Some(warm), 0) => (warm.gx, warm.gy) = (fit.gx, fit.gy),
+            _ => s.warm = None,
+        }
         self.finish(t, w, fit, shadowed)
+    }
+
+    /// Coherence shortcut: Gauss–Newton from the previous pixel's solution, accepted
+    /// when its relative residual is at most 1.5 × that of the last pixel matched through
+    /// the tree (or 0.3%), and at most 16 pixels after that tree search.
+    fn warm_start(&self, t: &[f32], s: &mut Scratch) -> Option<Fit> {
+        let warm = s.warm?;
+        if warm.since_tree >= WARM_RUN {
+            return None;
+        }
+        let start = Fit {
+            gx: warm.gx,
+            gy: warm.gy,
+            coef: [1.0, 0.0],
+            cost: f32::INFINITY,
+        };
+        let fit = self
+            .model
+            .refine(t, None, start, self.opts.max_iterations, s);
+        if relative(t, fit.cost) <= (1.5 * warm.rel_ref).max(0.003) {
+            if let Some(w) = s.warm.as_mut() {
+                w.since_tree += 1;
+            }
+            Some(fit)
+        } else {
+            None
+        }
     }
 
     /// Brightness below which a target sample counts as dark, for a fit.

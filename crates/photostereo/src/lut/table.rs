@@ -24,8 +24,9 @@ pub struct BuildOptions {
     /// Standard deviation (pixels) of a Gaussian blur of the sphere images against
     /// noise; `Some(0.0)` = none. A blur of σ biases the tuples by about σ²/2 · ΔI, so
     /// it pays only on noisy spheres. `None` (default) chooses it from the noise
-    /// estimated on the sphere ([`estimate_noise`]): none below 0.2% of the brightest
-    /// sample, else 100 × (noise / brightest) pixels, clamped to 0.5–1.5 px.
+    /// estimated on the sphere ([`estimate_noise`]): 150 × noise / typical sample
+    /// pixels (typical = median of the samples above 3 × noise), at most 1.5 px, and none
+    /// when that is below 0.3 px (1% noise on a sphere of albedo ~0.8 gives 1.5 px).
     pub smooth: Option<f64>,
 }
 
@@ -122,15 +123,7 @@ impl Table {
         };
         let smooth = match opts.smooth {
             Some(s) => s,
-            None => {
-                let (noise, peak) = estimate_noise(&window, circle, opts.rim);
-                let rel = noise / peak.max(1e-12);
-                if rel < 0.002 {
-                    0.0
-                } else {
-                    (100.0 * rel).clamp(0.5, 1.5) as f64
-                }
-            }
+            None => auto_smooth(&window, circle, opts.rim),
         };
         if smooth > 0.0 {
             if smooth.is_nan() || smooth > 10.0 {
@@ -262,8 +255,8 @@ impl Table {
     }
 
     /// Bilinear interpolation of the K sphere images at window-grid point (gx, gy):
-    /// writes I into `value` and, when given, ∂I/∂gx and ∂I/∂gy into `grad`
-    /// (`grad[2 * i]`, `grad[2 * i + 1]`).
+    /// writes I into `value` and, when given, ∂I/∂gx into `grad[..k]` and ∂I/∂gy into
+    /// `grad[k..2k]`.
     #[inline]
     pub fn sample(&self, gx: f64, gy: f64, value: &mut [f32], grad: Option<&mut [f32]>) {
         let ws = &self.window.stack;
@@ -281,18 +274,28 @@ impl Table {
             None => {
                 let (w00, w01, w10, w11) =
                     ((1.0 - a) * (1.0 - b), a * (1.0 - b), (1.0 - a) * b, a * b);
-                for i in 0..k {
-                    value[i] = w00 * p00[i] + w01 * p01[i] + w10 * p10[i] + w11 * p11[i];
+                for ((((v, x00), x01), x10), x11) in
+                    value.iter_mut().zip(p00).zip(p01).zip(p10).zip(p11)
+                {
+                    *v = w00 * x00 + w01 * x01 + w10 * x10 + w11 * x11;
                 }
             }
             Some(g) => {
-                let g = &mut g[..2 * k];
-                for i in 0..k {
-                    let up = p00[i] + a * (p01[i] - p00[i]);
-                    let down = p10[i] + a * (p11[i] - p10[i]);
-                    value[i] = up + b * (down - up);
-                    g[2 * i] = (1.0 - b) * (p01[i] - p00[i]) + b * (p11[i] - p10[i]);
-                    g[2 * i + 1] = down - up;
+                let (gxs, gys) = g[..2 * k].split_at_mut(k);
+                let iter = value
+                    .iter_mut()
+                    .zip(gxs)
+                    .zip(gys)
+                    .zip(p00)
+                    .zip(p01)
+                    .zip(p10)
+                    .zip(p11);
+                for ((((((v, dx), dy), x00), x01), x10), x11) in iter {
+                    let up = x00 + a * (x01 - x00);
+                    let down = x10 + a * (x11 - x10);
+                    *v = up + b * (down - up);
+                    *dx = (x01 - x00) + b * ((x11 - x10) - (x01 - x00));
+                    *dy = down - up;
                 }
             }
         }
@@ -421,9 +424,24 @@ fn blur(stack: &mut ImageStack, sigma: f64) {
     }
 }
 
+/// Blur (pixels) chosen from the sphere's noise (see [`BuildOptions::smooth`]).
+fn auto_smooth(window: &Window, circle: &Circle, rim: f64) -> f64 {
+    let (noise, typical) = estimate_noise(window, circle, rim);
+    if typical.is_nan() || typical <= 0.0 {
+        return 0.0;
+    }
+    let blur = (150.0 * noise / typical).min(1.5) as f64;
+    if blur < 0.3 {
+        0.0
+    } else {
+        blur
+    }
+}
+
 /// Noise of the sphere images, estimated from the residual of each pixel against the
 /// mean of its 4 neighbours (σ ≈ 1.4826 · median |residual| / √1.25) over pixels well
-/// inside the rim; returns (σ, brightest sample) in intensity units.
+/// inside the rim; returns (σ, typical sample) in intensity units, the typical sample
+/// being the median of the samples above 3σ.
 pub fn estimate_noise(window: &Window, circle: &Circle, rim: f64) -> (f32, f32) {
     let ws = &window.stack;
     let k = ws.k;
@@ -433,7 +451,7 @@ pub fn estimate_noise(window: &Window, circle: &Circle, rim: f64) -> (f32, f32) 
         circle.cy - 0.5 - window.row0 as f64,
     );
     let mut res = Vec::new();
-    let mut peak = 0.0f32;
+    let mut values = Vec::new();
     for r in 1..ws.height.saturating_sub(1) {
         for c in 1..ws.width.saturating_sub(1) {
             if ((c as f64 - gcx).powi(2) + (r as f64 - gcy).powi(2)).sqrt() >= inner {
@@ -442,15 +460,27 @@ pub fn estimate_noise(window: &Window, circle: &Circle, rim: f64) -> (f32, f32) 
             let (p, u, d) = (ws.pixel(r, c), ws.pixel(r - 1, c), ws.pixel(r + 1, c));
             let (lf, rt) = (ws.pixel(r, c - 1), ws.pixel(r, c + 1));
             for i in 0..k {
-                peak = peak.max(p[i]);
+                values.push(p[i]);
                 res.push((p[i] - 0.25 * (u[i] + d[i] + lf[i] + rt[i])).abs());
             }
         }
     }
     if res.is_empty() {
-        return (0.0, peak);
+        return (0.0, 0.0);
     }
-    let mid = res.len() / 2;
-    let (_, median, _) = res.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
-    (1.4826 * *median / 1.25f32.sqrt(), peak)
+    let sigma = 1.4826 * median(&mut res) / 1.25f32.sqrt();
+    let mut lit: Vec<f32> = values.into_iter().filter(|&v| v > 3.0 * sigma).collect();
+    (
+        sigma,
+        if lit.is_empty() {
+            0.0
+        } else {
+            median(&mut lit)
+        },
+    )
+}
+
+fn median(v: &mut [f32]) -> f32 {
+    let mid = v.len() / 2;
+    *v.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
 }
