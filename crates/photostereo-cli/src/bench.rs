@@ -97,7 +97,56 @@ pub const ROWS: &[Row] = &[
         what: "masked sparse-Cholesky lsq, disk in lsq-size²",
         prepare: |a| integration_job(a.lsq_size, Method::Lsq, true),
     },
+    Row {
+        name: "lookup",
+        vs_floor: false,
+        what: "lookup-table normals, 1024² shiny vase (mask px), K=16, table r=150",
+        prepare: |_| lookup_job(),
+    },
 ];
+
+/// A rendered 1024² shiny-plastic vase under 16 lights and the table of a rendered
+/// radius-150 sphere of the same material.
+fn lookup_job() -> anyhow::Result<Job> {
+    use photostereo::lut;
+    use photostereo::sphere::Circle;
+    use photostereo::synth::{self, SceneOptions, Shape, ShapeKind};
+    let opts = SceneOptions {
+        width: 1024,
+        height: 1024,
+        shape: Shape::preset(ShapeKind::Vase, 1024, 1024),
+        lights: synth::default_lights(16),
+        ..SceneOptions::default()
+    };
+    let scene = synth::render(&opts)?;
+    let radius = 150.0;
+    let sphere = synth::render_calibration_sphere(&opts, radius)?;
+    let circle = Circle {
+        cx: sphere.stack.width as f64 / 2.0,
+        cy: sphere.stack.height as f64 / 2.0,
+        radius,
+    };
+    let tables = vec![lut::Table::build(
+        &sphere.stack,
+        &circle,
+        &lut::BuildOptions::default(),
+    )?];
+    let progress = photostereo::progress::NoProgress;
+    Ok(Job {
+        pixels: scene.mask.count(),
+        run: Box::new(move || {
+            let out = lut::solve(
+                &scene.stack,
+                &scene.mask,
+                &tables,
+                &lut::Options::default(),
+                &progress,
+            )?;
+            std::hint::black_box(out);
+            Ok(())
+        }),
+    })
+}
 
 /// Gradients of a sphere cap covering the grid (radius 0.8 × width).
 fn sphere_gradients(w: usize, h: usize) -> (GrayImage, GrayImage) {

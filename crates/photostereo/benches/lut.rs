@@ -1,54 +1,64 @@
-//! Lookup speed: a 1024 × 1024 target, K = 16, table from a sphere of radius 150 px.
+//! Lookup speed: a 1024 × 1024 rendered target (shiny-plastic vase, 16 lights), K = 16,
+//! table from a rendered sphere of radius 150 px — the data of the `lookup` row of
+//! `photostereo bench`.
 //!
-//! `cargo bench -p photostereo --bench lut` prints the time of one whole-image lookup;
-//! the pixel rate (Mpx/s over the mask) is printed once before the measurement.
-
-#[path = "../tests/lut_support/mod.rs"]
-mod lut_support;
+//! `cargo bench -p photostereo --bench lut` prints the rate of one whole-image lookup
+//! (Mpx/s over the mask pixels) and the CPU time it took (the machine may be shared),
+//! then times it with criterion. `LUT_ONCE=1` stops after the first figure.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use lut_support::{bumps, lights, sphere, Brdf};
 use photostereo::lut::{self, BuildOptions, Options, Table};
 use photostereo::progress::NoProgress;
+use photostereo::sphere::Circle;
+use photostereo::synth::{self, SceneOptions, Shape, ShapeKind};
 use std::time::Instant;
 
 fn lookup(c: &mut Criterion) {
-    let brdf = Brdf {
-        kd: 0.6,
-        ks: 0.5,
-        shininess: 40.0,
+    let scene_opts = SceneOptions {
+        width: 1024,
+        height: 1024,
+        shape: Shape::preset(ShapeKind::Vase, 1024, 1024),
+        lights: synth::default_lights(16),
+        ..SceneOptions::default()
     };
-    let l = lights(16);
-    let (sph, circle) = sphere(310, 150.0, &l, brdf);
-    let table = Table::build(&sph, &circle, &BuildOptions::default()).expect("table");
-    let (target, mask, _) = bumps(1024, &l, brdf, &|_, _| 1.0);
+    let scene = synth::render(&scene_opts).expect("target");
+    let radius = 150.0;
+    let sphere = synth::render_calibration_sphere(&scene_opts, radius).expect("sphere");
+    let circle = Circle {
+        cx: sphere.stack.width as f64 / 2.0,
+        cy: sphere.stack.height as f64 / 2.0,
+        radius,
+    };
+    let table = Table::build(&sphere.stack, &circle, &BuildOptions::default()).expect("table");
+    let (target, mask) = (scene.stack, scene.mask);
     let tables = [table];
     let opts = Options {
-        method: match std::env::var("LUT_METHOD").as_deref() {
-            Ok("nearest") => lut::Method::Nearest,
-            _ => lut::Method::Refined,
-        },
-        candidates: env_or("LUT_CANDIDATES", 4),
-        pca_dims: env_or("LUT_DIMS", 6),
+        candidates: env_or("LUT_CANDIDATES", Options::default().candidates),
+        pca_dims: env_or("LUT_DIMS", Options::default().pca_dims),
+        shadow_level: std::env::var("LUT_SHADOW")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(Options::default().shadow_level),
         ..Options::default()
     };
     let (start, cpu0) = (Instant::now(), cpu_seconds());
     let out = lut::solve(&target, &mask, &tables, &opts, &NoProgress).expect("solve");
     let (secs, cpu) = (start.elapsed().as_secs_f64(), cpu_seconds() - cpu0);
+    let px = out.stats.pixels as f64;
     println!(
-        "lookup 1024x1024, K=16, table r=150 ({} entries): {:.3} s, {:.2} Mpx/s ({} threads)",
+        "lookup 1024x1024 ({} mask px), K=16, table r=150 ({} entries): {secs:.3} s, {:.2} Mpx/s ({} threads)",
+        out.stats.pixels,
         tables[0].entries.len(),
-        secs,
-        out.stats.pixels as f64 / secs / 1e6,
+        px / secs / 1e6,
         rayon::current_num_threads()
     );
-    // The machine is shared: CPU time tells what 2 idle cores would do.
+    // On a shared machine the CPU time tells what 2 idle cores would do.
     println!(
-        "  CPU time {cpu:.3} s = {:.2} µs/px per core -> {:.2} Mpx/s on 2 idle cores",
-        cpu / out.stats.pixels as f64 * 1e6,
-        2.0 * out.stats.pixels as f64 / cpu / 1e6
+        "  CPU time {cpu:.3} s = {:.3} µs/px on one core -> {:.2} Mpx/s on 2 idle cores",
+        cpu / px * 1e6,
+        2.0 * px / cpu / 1e6
     );
-    println!("{:?}", out.stats);
+    println!("  {:?}", out.stats);
     if std::env::var("LUT_ONCE").is_ok() {
         return;
     }

@@ -44,6 +44,8 @@ pub(crate) struct Scratch {
     pub seeds: Vec<u32>,
     /// The previous pixel's solution (coherence shortcut); reset at row starts and gaps.
     pub warm: Option<super::search::Warm>,
+    /// Relative residual √cost/‖t‖ of the last pixel of the row matched through the tree.
+    pub rel_ref: f32,
 }
 
 impl Scratch {
@@ -55,6 +57,7 @@ impl Scratch {
             jac: vec![0.0; 2 * k],
             seeds: Vec::with_capacity(super::index::MAX_CANDIDATES),
             warm: None,
+            rel_ref: 0.0,
         }
     }
 }

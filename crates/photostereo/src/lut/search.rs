@@ -13,14 +13,14 @@ const COARSE_KEEP: usize = 3;
 
 /// Longest run of pixels matched by the coherence shortcut between two tree searches.
 const WARM_RUN: u32 = 16;
+/// Relative residual always accepted by the coherence tests.
+const WARM_FLOOR: f32 = 0.003;
 
 /// The previous pixel's solution, for the coherence shortcut.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Warm {
     pub gx: f64,
     pub gy: f64,
-    /// Relative residual of the last pixel matched through the tree.
-    pub rel_ref: f32,
     /// Pixels matched by the shortcut since.
     pub since_tree: u32,
 }
@@ -134,10 +134,10 @@ impl<'a> Solver<'a> {
                 None => {
                     let fit = self.tree_match(t, index, q, s);
                     let fit = self.model.refine(t, None, fit, self.opts.max_iterations, s);
+                    s.rel_ref = relative(t, fit.cost);
                     s.warm = Some(Warm {
                         gx: fit.gx,
                         gy: fit.gy,
-                        rel_ref: relative(t, fit.cost),
                         since_tree: 0,
                     });
                     fit
@@ -163,7 +163,7 @@ impl<'a> Solver<'a> {
                 if !new || (k as u16 - shadowed) < 2 {
                     break;
                 }
-                fit = self.exhaustive(t, Some(w), s);
+                fit = self.masked_search(t, w, fit, s);
             }
         }
         match (&mut s.warm, shadowed) {
@@ -190,7 +190,7 @@ impl<'a> Solver<'a> {
         let fit = self
             .model
             .refine(t, None, start, self.opts.max_iterations, s);
-        if relative(t, fit.cost) <= (1.5 * warm.rel_ref).max(0.003) {
+        if relative(t, fit.cost) <= (1.5 * s.rel_ref).max(WARM_FLOOR) {
             if let Some(w) = s.warm.as_mut() {
                 w.since_tree += 1;
             }
@@ -245,6 +245,32 @@ impl<'a> Solver<'a> {
             index.project(t, qd);
         }
         qd
+    }
+
+    /// Search with some lights dropped (weights `w`): first locally from `from` (pattern
+    /// descent from 4 px, Gauss–Newton), accepted when its relative residual passes the
+    /// coherence test; otherwise the exhaustive search, keeping the better of the two.
+    fn masked_search(&self, t: &[f32], w: &[f32], from: Fit, s: &mut Scratch) -> Fit {
+        let start = self.model.eval(t, Some(w), from.gx, from.gy, s);
+        let local = self.model.descend(t, Some(w), start, 4.0, s);
+        let local = self
+            .model
+            .refine(t, Some(w), local, self.opts.max_iterations, s);
+        let energy: f32 = t.iter().zip(w).map(|(t, w)| w * t * t).sum();
+        let rel = if energy > 0.0 {
+            (local.cost.max(0.0) / energy).sqrt()
+        } else {
+            f32::INFINITY
+        };
+        if !self.model.is_mix() && rel <= (1.5 * s.rel_ref).max(WARM_FLOOR) {
+            return local;
+        }
+        let global = self.exhaustive(t, Some(w), s);
+        if global.cost < local.cost {
+            global
+        } else {
+            local
+        }
     }
 
     /// Exhaustive search on the coarse grid with weights `w`, then pattern descent from
