@@ -1,0 +1,121 @@
+#!/usr/bin/env python3
+"""scikit-learn KDTree lookup side by side with `photostereo bench --only lookup`.
+
+Run by hand (not in CI), from the repository root, after `cargo build --release`:
+
+    pip install scikit-learn numpy
+    python3 crates/photostereo/benches/sklearn_lookup.py [--jobs 2] [--skip-rust]
+
+The table is a sphere of radius 150 px under the 16 default lights of `synth`
+(K = 16, about 69k entries), shaded with GGX shiny plastic (kd 0.7, F0 0.04, alpha 0.1)
+as `synth` does; the queries are the tuples of a 1024 x 1024 sphere of radius 450 px
+(about 636k pixels) under the same lights: a table and a target comparable to those of
+the `lookup` row. scikit-learn only finds the nearest entry (k = 1, no sub-pixel
+refinement, no shadow handling), so the comparison favours it.
+"""
+
+import argparse
+import math
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+from sklearn.neighbors import KDTree
+
+
+def default_lights(k):
+    """Same as photostereo::synth::default_lights."""
+    c_lo, c_hi = math.cos(math.radians(15)), math.cos(math.radians(60))
+    golden = math.pi * (3 - math.sqrt(5))
+    out = []
+    for i in range(k):
+        t = (i + 0.5) / k
+        cz = c_lo + (c_hi - c_lo) * t
+        sz = math.sqrt(1 - cz * cz)
+        phi = golden * i
+        out.append([sz * math.cos(phi), sz * math.sin(phi), cz])
+    return np.array(out)
+
+
+def ggx(n, lights, kd=0.7, f0=0.04, alpha=0.1):
+    """GGX / Cook-Torrance radiance as in photostereo::synth (view +z), n: (N, 3)."""
+    v = np.array([0.0, 0.0, 1.0])
+    nv = np.clip(n @ v, 1e-6, None)
+    out = np.zeros((n.shape[0], lights.shape[0]), dtype=np.float32)
+    a2 = alpha * alpha
+    for j, l in enumerate(lights):
+        nl = n @ l
+        h = (l + v) / np.linalg.norm(l + v)
+        nh = np.clip(n @ h, 0, None)
+        d = a2 / (math.pi * ((nh * nh) * (a2 - 1) + 1) ** 2)
+
+        def g1(x):
+            return 2 * x / (x + np.sqrt(a2 + (1 - a2) * x * x))
+
+        g = g1(np.clip(nl, 1e-6, None)) * g1(nv)
+        f = f0 + (1 - f0) * (1 - float(v @ h)) ** 5
+        spec = math.pi * d * g * f / (4 * nv)
+        out[:, j] = np.where(nl > 0, kd * nl + spec, 0.0)
+    return out
+
+
+def sphere_normals(size, radius, rim=0.0):
+    c = np.arange(size) + 0.5 - size / 2
+    x, y = np.meshgrid(c, -c)
+    rho2 = (x * x + y * y) / (radius * radius)
+    inside = rho2 < ((radius - rim) / radius) ** 2
+    n = np.stack([x / radius, y / radius, np.sqrt(np.clip(1 - rho2, 0, None))], -1)
+    return n[inside]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="query workers (threads)")
+    ap.add_argument("--skip-rust", action="store_true", help="do not run photostereo bench")
+    args = ap.parse_args()
+
+    lights = default_lights(16)
+    table = ggx(sphere_normals(304, 150.0, rim=2.0), lights)
+    queries = ggx(sphere_normals(1024, 450.0), lights)
+    print(f"table {table.shape[0]} entries x K={table.shape[1]}, {queries.shape[0]} queries")
+
+    t0 = time.perf_counter()
+    tree = KDTree(table, leaf_size=16)
+    build = time.perf_counter() - t0
+
+    def query(chunk):
+        return tree.query(chunk, k=1, return_distance=False)
+
+    t0 = time.perf_counter()
+    if args.jobs > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        chunks = np.array_split(queries, args.jobs * 8)
+        with ThreadPoolExecutor(args.jobs) as ex:
+            list(ex.map(query, chunks))
+    else:
+        query(queries)
+    secs = time.perf_counter() - t0
+    sk_rate = queries.shape[0] / secs / 1e6
+    print(f"scikit-learn {__import__('sklearn').__version__} KDTree: build {build:.2f} s, "
+          f"query k=1 on {args.jobs} thread(s) {secs:.2f} s = {sk_rate:.3f} Mpx/s")
+
+    if args.skip_rust:
+        return
+    exe = os.path.join("target", "release", "photostereo")
+    if not os.path.exists(exe):
+        sys.exit(f"{exe} not found: run `cargo build --release` from the repository root first")
+    out = subprocess.run([exe, "bench", "--only", "lookup", "--repeat", "3"],
+                         capture_output=True, text=True, check=True).stdout
+    print(out.rstrip())
+    for line in out.splitlines():
+        if line.startswith("lookup"):
+            rate = float(line.split()[3])
+            print(f"photostereo lookup {rate:.2f} Mpx/s = {rate / sk_rate:.1f}x scikit-learn "
+                  f"(target: >= 10x and >= 5 Mpx/s)")
+
+
+if __name__ == "__main__":
+    main()
