@@ -1,12 +1,162 @@
-//! `photostereo interreflect` (to be written).
+//! `photostereo interreflect`: remove interreflections from a Lambertian dataset with the
+//! Nayar–Ikeuchi–Kanade iteration and write every iterate, the convergence table and plots.
 
+use crate::progress::Bar;
 use crate::Global;
+use anyhow::Context;
+use photostereo::interreflect::{self, NikOptions, NikOutput, RadiosityOptions, Visibility};
+use photostereo::io;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `photostereo interreflect`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+#[command(after_help = "Example:\n  photostereo interreflect data/vgroove_interreflect -o out/vgroove --max-iter 10 --tol 0.01 --block 2\n\n\
+The images must be linear and scaled so that a white Lambertian surface facing a unit light\n\
+reads 1 (the albedo enters the compensation I_direct = I_raw - albedo * K * I_raw). With a\n\
+meta.json holding \"scale\" (Mitsuba renders) the 16-bit images are rescaled automatically;\n\
+otherwise use --image-scale.")]
+pub struct Args {
+    /// Dataset directory (DiLiGenT layout: images, light_directions.txt, mask.png).
+    pub dataset: PathBuf,
+    /// Output directory.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Most compensation steps after the raw reconstruction.
+    #[arg(long, default_value_t = 10)]
+    pub max_iter: usize,
+    /// Stop when the spread of the depth change / depth range is below this (0.01 = 1 %).
+    #[arg(long, default_value_t = 0.01)]
+    pub tol: f32,
+    /// Facet size in pixels for the interreflection kernel (1 = per pixel; larger is faster).
+    #[arg(long, default_value_t = 2)]
+    pub block: usize,
+    /// Azimuths of the horizon visibility test (0 = no visibility test).
+    #[arg(long, default_value_t = 64)]
+    pub azimuths: usize,
+    /// Multiply the loaded images by this factor (default: 65535/scale from meta.json, else 1).
+    #[arg(long)]
+    pub image_scale: Option<f32>,
+    /// Image row of the cross-section plot (default: the middle of the mask).
+    #[arg(long)]
+    pub row: Option<usize>,
+}
 
 /// Run the subcommand.
-pub fn run(_args: Args, _global: Global) -> anyhow::Result<()> {
-    anyhow::bail!("`photostereo interreflect` is not available yet")
+pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
+    let opts = io::LoadOptions {
+        require_lights: true,
+        require_mask: true,
+        ..Default::default()
+    };
+    let mut data = io::load_dataset(&args.dataset, &opts)
+        .with_context(|| format!("loading {}", args.dataset.display()))?;
+    let scale = match args.image_scale {
+        Some(s) => s,
+        None => meta_scale(&args.dataset)?.unwrap_or(1.0),
+    };
+    if !(scale.is_finite() && scale > 0.0) {
+        anyhow::bail!("--image-scale {scale}: use a finite factor > 0");
+    }
+    data.stack.data.iter_mut().for_each(|v| *v *= scale);
+    let lights = data.lights.clone().context("light directions")?;
+    let mask = data.mask.clone().context("mask")?;
+    let nik = NikOptions {
+        max_iter: args.max_iter,
+        tol: args.tol,
+        radiosity: RadiosityOptions {
+            block: args.block,
+            visibility: if args.azimuths == 0 {
+                Visibility::None
+            } else {
+                Visibility::Horizon {
+                    azimuths: args.azimuths,
+                }
+            },
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let out = interreflect::solve(&data.stack, &mask, &lights, &nik, &Bar::new(global.quiet))
+        .context("interreflection iteration")?;
+    let truth_path = args.dataset.join("depth_gt.npy");
+    let truth = if truth_path.exists() {
+        Some(io::read_gray_npy(&truth_path)?)
+    } else {
+        None
+    };
+    write_outputs(&args, &out, &mask, truth.as_ref())?;
+    if !global.quiet {
+        print_table(&out, &mask, truth.as_ref());
+        println!("{}", out.summary());
+        println!("wrote {}", args.output.display());
+    }
+    Ok(())
+}
+
+/// `65535 / scale` from the dataset's meta.json (Mitsuba renders store 16-bit = radiance × scale).
+fn meta_scale(dir: &Path) -> anyhow::Result<Option<f32>> {
+    let path = dir.join("meta.json");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+    Ok(v.get("scale")
+        .and_then(|s| s.as_f64())
+        .filter(|s| *s > 0.0)
+        .map(|s| (65535.0 / s) as f32))
+}
+
+fn write_outputs(
+    args: &Args,
+    out: &NikOutput,
+    mask: &photostereo::Mask,
+    truth: Option<&photostereo::DepthMap>,
+) -> anyhow::Result<()> {
+    let dir = &args.output;
+    for (t, it) in out.iterations.iter().enumerate() {
+        io::write_gray_npy(&dir.join(format!("depth_iter{t:02}.npy")), &it.shape.depth)?;
+        io::write_gray_npy(&dir.join(format!("albedo_iter{t:02}.npy")), &it.shape.albedo)?;
+    }
+    let best = out.best_shape();
+    io::write_normals(&dir.join("normals.npy"), &best.normals)?;
+    io::write_normals_png(&dir.join("normals.png"), &best.normals, Some(mask))?;
+    io::write_gray_npy(&dir.join("albedo.npy"), &best.albedo)?;
+    io::write_gray_npy(&dir.join("depth.npy"), &best.depth)?;
+    io::write_text(&dir.join("convergence.csv"), &out.convergence_csv())?;
+    let row = match args.row {
+        Some(r) => r,
+        None => interreflect::plot::middle_row(mask).context("the mask is empty")?,
+    };
+    io::write_bytes(
+        &dir.join("profile.png"),
+        &interreflect::profile_plot_png(out, mask, row, truth)?,
+    )?;
+    io::write_bytes(
+        &dir.join("convergence.png"),
+        &interreflect::convergence_plot_png(out)?,
+    )?;
+    Ok(())
+}
+
+fn print_table(out: &NikOutput, mask: &photostereo::Mask, truth: Option<&photostereo::DepthMap>) {
+    let true_range = truth.map(|z| interreflect::nik::depth_range(z, mask));
+    println!(
+        "{:>4} {:>12} {:>10} {:>11} {:>12} {:>12}",
+        "iter", "depth range", "vs truth", "rel change", "mean albedo", "fit resid."
+    );
+    for (t, it) in out.iterations.iter().enumerate() {
+        let ratio = true_range.map_or(String::from("-"), |r| {
+            format!("{:.3}", it.depth_range / r.max(1e-9))
+        });
+        println!(
+            "{t:>4} {:>12.3} {ratio:>10} {:>11.4} {:>12.4} {:>12.5}{}",
+            it.depth_range,
+            it.relative_change,
+            it.mean_albedo,
+            it.fit_residual,
+            if t == out.best { "  <- kept" } else { "" }
+        );
+    }
 }
