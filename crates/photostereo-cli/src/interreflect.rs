@@ -10,11 +10,13 @@ use std::path::{Path, PathBuf};
 
 /// Arguments of `photostereo interreflect`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example:\n  photostereo interreflect data/vgroove_interreflect -o out/vgroove --max-iter 10 --tol 0.01 --block 2\n\n\
+#[command(
+    after_help = "Example:\n  photostereo interreflect data/vgroove_interreflect -o out/vgroove --max-iter 10 --tol 0.01 --block 2\n\n\
 The images must be linear and scaled so that a white Lambertian surface facing a unit light\n\
 reads 1 (the albedo enters the compensation I_direct = I_raw - albedo * K * I_raw). With a\n\
 meta.json holding \"scale\" (Mitsuba renders) the 16-bit images are rescaled automatically;\n\
-otherwise use --image-scale.")]
+otherwise use --image-scale."
+)]
 pub struct Args {
     /// Dataset directory (DiLiGenT layout: images, light_directions.txt, mask.png).
     pub dataset: PathBuf,
@@ -28,8 +30,9 @@ pub struct Args {
     #[arg(long, default_value_t = 0.01)]
     pub tol: f32,
     /// Facet size in pixels for the interreflection kernel (1 = per pixel; larger is faster).
-    #[arg(long, default_value_t = 2)]
-    pub block: usize,
+    /// Default: the smallest block (at least 2) giving at most 4096 facet cells.
+    #[arg(long)]
+    pub block: Option<usize>,
     /// Azimuths of the horizon visibility test (0 = no visibility test).
     #[arg(long, default_value_t = 64)]
     pub azimuths: usize,
@@ -64,7 +67,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         max_iter: args.max_iter,
         tol: args.tol,
         radiosity: RadiosityOptions {
-            block: args.block,
+            block: args.block.unwrap_or_else(|| auto_block(&mask)),
             visibility: if args.azimuths == 0 {
                 Visibility::None
             } else {
@@ -93,13 +96,31 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Smallest block ≥ 2 whose grid has at most 4096 cells inside the mask (a dense kernel of
+/// 64 MiB; bounced light is smooth, so coarse facets cost little accuracy).
+fn auto_block(mask: &photostereo::Mask) -> usize {
+    (2..64)
+        .find(|&b| {
+            let (gw, gh) = (mask.width.div_ceil(b), mask.height.div_ceil(b));
+            let mut cells = vec![false; gw * gh];
+            for (i, &m) in mask.data.iter().enumerate() {
+                if m {
+                    cells[(i / mask.width / b) * gw + (i % mask.width) / b] = true;
+                }
+            }
+            cells.iter().filter(|&&c| c).count() <= 4096
+        })
+        .unwrap_or(64)
+}
+
 /// `65535 / scale` from the dataset's meta.json (Mitsuba renders store 16-bit = radiance × scale).
 fn meta_scale(dir: &Path) -> anyhow::Result<Option<f32>> {
     let path = dir.join("meta.json");
     if !path.exists() {
         return Ok(None);
     }
-    let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
     let v: serde_json::Value =
         serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
     Ok(v.get("scale")
@@ -117,7 +138,10 @@ fn write_outputs(
     let dir = &args.output;
     for (t, it) in out.iterations.iter().enumerate() {
         io::write_gray_npy(&dir.join(format!("depth_iter{t:02}.npy")), &it.shape.depth)?;
-        io::write_gray_npy(&dir.join(format!("albedo_iter{t:02}.npy")), &it.shape.albedo)?;
+        io::write_gray_npy(
+            &dir.join(format!("albedo_iter{t:02}.npy")),
+            &it.shape.albedo,
+        )?;
     }
     let best = out.best_shape();
     io::write_normals(&dir.join("normals.npy"), &best.normals)?;

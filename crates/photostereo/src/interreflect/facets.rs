@@ -44,6 +44,8 @@ pub struct Facets {
     pub pixels: Vec<Vec<u32>>,
     /// Height of each grid cell (mean depth of its pixels), NaN where the cell has no facet.
     pub heights: Vec<f32>,
+    /// Largest cell height (pixels).
+    pub max_height: f32,
     /// Normal of every pixel (copied from the input), used to keep [`Facets::spread`] from
     /// blending across creases.
     pub pixel_normals: Vec<[f32; 3]>,
@@ -137,6 +139,7 @@ impl Facets {
             area: Vec::new(),
             pixels: Vec::new(),
             heights: vec![f32::NAN; gw * gh],
+            max_height: f32::NEG_INFINITY,
             pixel_normals: normals.data.clone(),
         };
         for (ci, px) in cell_pixels.into_iter().enumerate() {
@@ -148,6 +151,7 @@ impl Facets {
                 .map(|&p| depth.data[p as usize] as f64)
                 .sum::<f64>();
             f.heights[ci] = (mean_z / px.len() as f64) as f32;
+            f.max_height = f.max_height.max(f.heights[ci]);
             for group in split_at_crease(px, normals) {
                 f.add_facet(ci, group, depth, normals);
             }

@@ -151,10 +151,8 @@ fn fill_row(
     row: &mut [f32],
     o: &KernelOptions,
 ) -> (u64, u64) {
-    let horizon = match o.visibility {
-        Visibility::Horizon { azimuths } => Some(Horizon::march(f, grid[i], f.pos[i][2], azimuths)),
-        _ => None,
-    };
+    // Marched lazily: a facet that faces no other (a flat rim) never pays for it.
+    let mut horizon: Option<Horizon> = None;
     let (mut occluded, mut facing) = (0u64, 0u64);
     let (xi, ni) = (f.pos[i], f.normal[i]);
     for (j, out) in row.iter_mut().enumerate() {
@@ -173,12 +171,14 @@ fn fill_row(
             continue;
         }
         facing += 1;
-        let visible = match (&o.visibility, &horizon) {
-            (Visibility::None, _) => true,
-            (Visibility::Horizon { .. }, Some(h)) => {
-                h.visible(dr, dc, rho, f.pos[j][2] - xi[2], f.block as f32, o.vis_eps)
+        let visible = match o.visibility {
+            Visibility::None => true,
+            Visibility::Horizon { azimuths } => horizon
+                .get_or_insert_with(|| Horizon::march(f, grid[i], xi[2], azimuths))
+                .visible(dr, dc, rho, f.pos[j][2] - xi[2], f.block as f32, o.vis_eps),
+            Visibility::BruteForce => {
+                segment_visible(f, grid[i], grid[j], xi[2], f.pos[j][2], o.vis_eps)
             }
-            _ => segment_visible(f, grid[i], grid[j], xi[2], f.pos[j][2], o.vis_eps),
         };
         if visible {
             *out = kij;
@@ -257,6 +257,9 @@ impl Horizon {
             + 2;
         let mut slope = vec![f32::NEG_INFINITY; azimuths * len];
         let b = f.block as f32;
+        // Beyond the step where the horizon is above (z_max − z)/distance nothing can rise
+        // over it any more: the rest of the ray keeps the same horizon.
+        let rise = f.max_height - z;
         for a in 0..azimuths {
             let th = 2.0 * PI * a as f32 / azimuths as f32;
             let (sr, sc) = (th.sin(), th.cos());
@@ -272,6 +275,10 @@ impl Horizon {
                     run = run.max((h - z) / (s as f32 * b));
                 }
                 line[s] = run;
+                if run >= rise / (s as f32 * b) {
+                    line[s..].iter_mut().for_each(|v| *v = run);
+                    break;
+                }
             }
         }
         Horizon {
