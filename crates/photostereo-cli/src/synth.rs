@@ -25,6 +25,9 @@ pub struct Args {
     /// Image width and height (pixels).
     #[arg(long, default_value_t = 256)]
     pub size: usize,
+    /// Add interreflections: all bounces by radiosity on 2×2-pixel facets (Lambertian only).
+    #[arg(long)]
+    pub interreflections: bool,
 }
 
 fn material(name: &str) -> anyhow::Result<Material> {
@@ -50,7 +53,15 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         lights: default_lights(args.lights),
         ..Default::default()
     };
-    let scene = render_with_progress(&opts, &Bar::new(global.quiet)).context("rendering")?;
+    let bar = Bar::new(global.quiet);
+    let scene = if args.interreflections {
+        let radiosity = photostereo::interreflect::RadiosityOptions::default();
+        photostereo::interreflect::render_with_interreflections_report(&opts, &radiosity, &bar)
+            .context("rendering with interreflections")?
+            .0
+    } else {
+        render_with_progress(&opts, &bar).context("rendering")?
+    };
     if !global.quiet {
         println!(
             "rendered {}x{}x{}, {} pixels in the mask",
