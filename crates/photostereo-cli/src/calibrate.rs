@@ -1,12 +1,112 @@
-//! `photostereo calibrate` (to be written).
+//! `photostereo calibrate`: find the calibration sphere and build its lookup table.
 
 use crate::Global;
+use anyhow::Context;
+use photostereo::io;
+use photostereo::lut::{BuildOptions, Table};
+use photostereo::sphere::{self, Circle, DetectOptions};
+use std::path::PathBuf;
 
 /// Arguments of `photostereo calibrate`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+#[command(after_help = "Examples:\n  \
+photostereo calibrate data/sphere -o sphere.lut --material 'red plastic'\n  \
+photostereo calibrate data/scene --sphere-region 10,20,200,200 -o sphere.lut\n  \
+photostereo calibrate data/sphere --circle 256.5,170,120 --rim 3 -o sphere.lut\n\n\
+SPHERE_DIR holds the K images of a sphere of the target's material under the target's lights \
+(DiLiGenT layout). The sphere is found in the maximum of the images; overlay.png (the circle \
+on that image) is written beside the table: check it.")]
+pub struct Args {
+    /// Directory with the sphere's images.
+    #[arg(value_name = "SPHERE_DIR")]
+    dir: PathBuf,
+    /// Use this circle instead of detecting it: centre x (along columns), centre y
+    /// (along rows) and radius, in pixels; pixel (r, c) is centred at (c+0.5, r+0.5).
+    #[arg(long, value_name = "CX,CY,R", value_parser = crate::lights::parse_circle)]
+    circle: Option<Circle>,
+    /// Search the sphere only in this window (when the sphere shares the images with the
+    /// target): left column, top row, width, height.
+    #[arg(long, value_name = "X,Y,W,H", value_parser = crate::lights::parse_region)]
+    sphere_region: Option<(usize, usize, usize, usize)>,
+    /// Search the sphere only inside this mask (PNG/TIFF/.npy, non-zero = sphere).
+    #[arg(long, value_name = "MASK")]
+    mask: Option<PathBuf>,
+    /// Free-text name of the sphere's material, stored in the table.
+    #[arg(long, value_name = "NAME", default_value = "")]
+    material: String,
+    /// Leave out this many pixels inside the rim (grazing normals, mixed pixels).
+    #[arg(long, value_name = "PX", default_value_t = BuildOptions::default().rim)]
+    rim: f64,
+    /// Gaussian blur of the sphere images against noise (pixels); default: chosen from
+    /// the noise measured on the sphere (none on clean images).
+    #[arg(long, value_name = "PX")]
+    smooth: Option<f64>,
+    /// Output table file.
+    #[arg(short, long, value_name = "FILE")]
+    output: PathBuf,
+}
 
 /// Run the subcommand.
-pub fn run(_args: Args, _global: Global) -> anyhow::Result<()> {
-    anyhow::bail!("`photostereo calibrate` is not available yet")
+pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
+    let load = io::LoadOptions {
+        mask_path: args.mask.clone(),
+        require_mask: args.mask.is_some(),
+        ..io::LoadOptions::default()
+    };
+    let data = io::load_dataset(&args.dir, &load)
+        .with_context(|| format!("loading the sphere images from {}", args.dir.display()))?;
+    let detect = DetectOptions {
+        circle: args.circle,
+        region: args.sphere_region,
+        mask: if args.mask.is_some() {
+            data.mask.clone()
+        } else {
+            None
+        },
+        ..DetectOptions::default()
+    };
+    let det = sphere::detect(&data.stack, &detect)
+        .with_context(|| format!("finding the sphere in {}", args.dir.display()))?;
+    let c = det.circle;
+    let say = |s: String| {
+        if !global.quiet {
+            println!("{s}");
+        }
+    };
+    let source = if args.circle.is_some() {
+        "given"
+    } else {
+        "detected"
+    };
+    say(format!(
+        "sphere circle ({source}): cx {:.2}, cy {:.2}, r {:.2} px; fit rms {:.3} px over {}/{} edge points",
+        c.cx, c.cy, c.radius, det.rms_residual_px, det.inliers, det.edge_points
+    ));
+    let opts = BuildOptions {
+        rim: args.rim,
+        material: args.material.clone(),
+        smooth: args.smooth,
+    };
+    let table = Table::build(&data.stack, &c, &opts)
+        .with_context(|| format!("building the lookup table from {}", args.dir.display()))?;
+    say(format!(
+        "table: {} entries, K = {}, rim {} px, blur {:.2} px, material '{}'",
+        table.entries.len(),
+        table.k,
+        table.rim,
+        table.smooth,
+        table.material
+    ));
+    // everything is computed before the first file is written
+    let bytes = table.to_bytes();
+    let png = sphere::encode_png(&sphere::overlay(&det.max_image, &c))?;
+    let overlay_path = args.output.with_file_name("overlay.png");
+    io::write_bytes(&args.output, &bytes)?;
+    io::write_bytes(&overlay_path, &png)?;
+    say(format!(
+        "lookup table written to {}; check the circle in {}",
+        args.output.display(),
+        overlay_path.display()
+    ));
+    Ok(())
 }

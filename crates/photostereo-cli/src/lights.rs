@@ -193,7 +193,7 @@ fn numbers<const N: usize>(s: &str, what: &str) -> Result<[f64; N], String> {
         .map_err(|_| format!("{what}: expected {N} comma-separated numbers, got `{s}`"))
 }
 
-fn parse_circle(s: &str) -> Result<Circle, String> {
+pub(crate) fn parse_circle(s: &str) -> Result<Circle, String> {
     let [cx, cy, radius] = numbers::<3>(s, "--circle cx,cy,r")?;
     let finite = cx.is_finite() && cy.is_finite() && radius.is_finite();
     if !finite || radius <= 0.0 {
@@ -204,7 +204,7 @@ fn parse_circle(s: &str) -> Result<Circle, String> {
     Ok(Circle { cx, cy, radius })
 }
 
-fn parse_region(s: &str) -> Result<(usize, usize, usize, usize), String> {
+pub(crate) fn parse_region(s: &str) -> Result<(usize, usize, usize, usize), String> {
     let v = numbers::<4>(s, "--sphere-region x,y,w,h")?;
     if v.iter().any(|x| *x < 0.0 || x.fract() != 0.0) {
         return Err(format!(

@@ -6,7 +6,8 @@
 //! bytes 12..16  header length H, u32 little-endian
 //! bytes 16..16+H  UTF-8 JSON header: version, k, names (image names in light order),
 //!               circle {cx, cy, radius} (pixels, pixel (r, c) centre at (c+.5, r+.5)),
-//!               material, rim, window {col0, row0, width, height}, sample_format
+//!               material, rim, smooth (blur applied, px),
+//!               window {col0, row0, width, height}, sample_format
 //! then          width × height × k samples, f32 little-endian, pixel-major
 //!               (the sphere images on the window around the circle)
 //! ```
@@ -33,6 +34,8 @@ struct Header {
     circle: CircleJson,
     material: String,
     rim: f64,
+    #[serde(default)]
+    smooth: f64,
     window: WindowJson,
     sample_format: String,
 }
@@ -74,6 +77,7 @@ impl Table {
             },
             material: self.material.clone(),
             rim: self.rim,
+            smooth: self.smooth,
             window: WindowJson {
                 col0: self.window.col0,
                 row0: self.window.row0,
@@ -158,6 +162,8 @@ impl Table {
             row0: h.window.row0,
             stack,
         };
-        Table::from_parts(h.names, circle, h.material, h.rim, window)
+        let mut table = Table::from_parts(h.names, circle, h.material, h.rim, window)?;
+        table.smooth = h.smooth;
+        Ok(table)
     }
 }

@@ -88,6 +88,8 @@ pub struct Table {
     pub material: String,
     /// Rim width (pixels) left out of the entries.
     pub rim: f64,
+    /// Gaussian blur (pixels) applied to the sphere images when the table was built.
+    pub smooth: f64,
     /// Sphere images around the circle.
     pub window: Window,
     /// Discrete entries (tuples, normals, pixels).
@@ -135,13 +137,15 @@ impl Table {
             pad_window(&mut window, circle, opts.rim);
             blur(&mut window.stack, smooth);
         }
-        Table::from_parts(
+        let mut table = Table::from_parts(
             stack.names.clone(),
             *circle,
             opts.material.clone(),
             opts.rim,
             window,
-        )
+        )?;
+        table.smooth = smooth;
+        Ok(table)
     }
 
     /// Assemble a table from its window (pads it and derives the entries). Used by
@@ -198,6 +202,7 @@ impl Table {
             circle,
             material,
             rim,
+            smooth: 0.0,
             window,
             entries,
         })
