@@ -186,6 +186,17 @@ fn integration_job(size: usize, method: Method, disk: bool) -> anyhow::Result<Jo
     })
 }
 
+/// CPU time (user + system, all threads) of this process in seconds, from
+/// `/proc/self/stat` (Linux; 10 ms resolution). `None` elsewhere.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
 /// Run the subcommand.
 pub fn run(args: Args, _global: Global) -> anyhow::Result<()> {
     anyhow::ensure!(
@@ -194,8 +205,8 @@ pub fn run(args: Args, _global: Global) -> anyhow::Result<()> {
     );
     let repeat = args.repeat.max(1);
     println!(
-        "{:<12} {:>11} {:>10} {:>9} {:>8}  what",
-        "row", "pixels", "best s", "Mpx/s", "x floor"
+        "{:<12} {:>11} {:>10} {:>10} {:>9} {:>8}  what",
+        "row", "pixels", "best s", "cpu s/run", "Mpx/s", "x floor"
     );
     let mut floor: Option<f64> = None;
     for row in ROWS {
@@ -205,11 +216,16 @@ pub fn run(args: Args, _global: Global) -> anyhow::Result<()> {
         let mut job = (row.prepare)(&args)?;
         (job.run)()?; // warm-up (plans, page faults)
         let mut best = f64::INFINITY;
+        let cpu0 = cpu_seconds();
         for _ in 0..repeat {
             let t = Instant::now();
             (job.run)()?;
             best = best.min(t.elapsed().as_secs_f64());
         }
+        let cpu = match (cpu0, cpu_seconds()) {
+            (Some(a), Some(b)) => format!("{:.3}", (b - a) / repeat as f64),
+            _ => "-".into(),
+        };
         if row.name == "fft-floor" {
             floor = Some(best);
         }
@@ -218,15 +234,19 @@ pub fn run(args: Args, _global: Global) -> anyhow::Result<()> {
             _ => "-".into(),
         };
         println!(
-            "{:<12} {:>11} {:>10.4} {:>9.1} {:>8}  {}",
+            "{:<12} {:>11} {:>10.4} {:>10} {:>9.1} {:>8}  {}",
             row.name,
             job.pixels,
             best,
+            cpu,
             job.pixels as f64 / best / 1e6,
             ratio,
             row.what
         );
     }
-    println!("threads: {}", rayon::current_num_threads());
+    println!(
+        "threads: {}; best s = fastest wall time of {repeat} runs, cpu s/run = CPU time of all threads (a bound on the wall time of an idle machine)",
+        rayon::current_num_threads()
+    );
     Ok(())
 }

@@ -117,7 +117,7 @@ pub(crate) fn integrate(p: &[f32], q: &[f32], w: usize, h: usize) -> Vec<f32> {
     solve_neumann(b, w, h)
 }
 
-fn neumann_divergence(p: &[f32], q: &[f32], w: usize, h: usize) -> Vec<f32> {
+pub(crate) fn neumann_divergence(p: &[f32], q: &[f32], w: usize, h: usize) -> Vec<f32> {
     let mut b = vec![0.0f32; w * h];
     b.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
         let gx = |c: usize| 0.5 * (p[r * w + c] + p[r * w + c + 1]);

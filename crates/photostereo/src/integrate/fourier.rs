@@ -10,6 +10,7 @@
 
 use super::fft2::Fft2;
 use crate::error::Result;
+use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// Solve on the periodic grid (or on its mirror image when `reflect`); returns the
@@ -22,25 +23,21 @@ pub(crate) fn integrate(
     reflect: bool,
 ) -> Result<Vec<f32>> {
     if !reflect {
-        let div = divergence(w, h, |r, c| (p[r * w + c], q[r * w + c]));
-        return Ok(solve_periodic(div, w, h));
+        return Ok(solve_periodic(divergence(p, q, w, h), w, h));
     }
+    // Mirror about the right and bottom edges (p odd across a vertical edge, q across a
+    // horizontal one). The periodic divergence of the mirrored field is the mirror image
+    // of the Neumann divergence of the original one, so build that directly.
     let (we, he) = (2 * w, 2 * h);
-    // Mirror about the right and bottom edges: p is odd across a vertical edge and
-    // even across a horizontal one, q the reverse.
-    let div = divergence(we, he, |r, c| {
-        let (mr, sr) = if r < h {
-            (r, 1.0f32)
-        } else {
-            (he - 1 - r, -1.0)
-        };
-        let (mc, sc) = if c < w {
-            (c, 1.0f32)
-        } else {
-            (we - 1 - c, -1.0)
-        };
-        let i = mr * w + mc;
-        (sc * p[i], sr * q[i])
+    let b = super::dct::neumann_divergence(p, q, w, h);
+    let mut div = vec![0.0f32; we * he];
+    div.par_chunks_mut(we).enumerate().for_each(|(r, row)| {
+        let src = &b[(if r < h { r } else { he - 1 - r }) * w..][..w];
+        row[..w].copy_from_slice(src);
+        row[w..]
+            .iter_mut()
+            .zip(src.iter().rev())
+            .for_each(|(d, s)| *d = *s);
     });
     let z = solve_periodic(div, we, he);
     let mut out = Vec::with_capacity(w * h);
@@ -50,17 +47,18 @@ pub(crate) fn integrate(
     Ok(out)
 }
 
-/// Periodic divergence of the trapezoidal edge targets, `grad(r, c) = (p, q)`.
-fn divergence(w: usize, h: usize, grad: impl Fn(usize, usize) -> (f32, f32) + Sync) -> Vec<f32> {
-    use rayon::prelude::*;
+/// Periodic divergence of the trapezoidal edge targets: central differences of p along
+/// rows and of −q along columns, wrapping around.
+fn divergence(p: &[f32], q: &[f32], w: usize, h: usize) -> Vec<f32> {
     let mut div = vec![0.0f32; w * h];
     div.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
-        let (up, down) = ((r + h - 1) % h, (r + 1) % h);
+        let up = &q[(if r == 0 { h - 1 } else { r - 1 }) * w..][..w];
+        let down = &q[(if r + 1 == h { 0 } else { r + 1 }) * w..][..w];
+        let pr = &p[r * w..][..w];
         for (c, v) in row.iter_mut().enumerate() {
-            let (left, right) = ((c + w - 1) % w, (c + 1) % w);
-            let dp = grad(r, right).0 - grad(r, left).0;
-            let dq = grad(down, c).1 - grad(up, c).1;
-            *v = 0.5 * (dp - dq);
+            let left = pr[if c == 0 { w - 1 } else { c - 1 }];
+            let right = pr[if c + 1 == w { 0 } else { c + 1 }];
+            *v = 0.5 * ((right - left) - (down[c] - up[c]));
         }
     });
     div
@@ -68,7 +66,6 @@ fn divergence(w: usize, h: usize, grad: impl Fn(usize, usize) -> (f32, f32) + Sy
 
 /// Solve L z = div on the periodic W × H grid by FFT.
 fn solve_periodic(mut div: Vec<f32>, w: usize, h: usize) -> Vec<f32> {
-    use rayon::prelude::*;
     let fft = Fft2::new(w, h);
     let mut spec = fft.forward(&mut div);
     drop(div);

@@ -268,8 +268,10 @@ pub fn integrate_gradients_with_progress(
 ) -> Result<Output> {
     let (w, h) = (p.width, p.height);
     check_inputs(p, q, mask, opts)?;
-    let (p, q, clamped) = support::sanitize(p, q, mask);
-    let comps = label_components(mask);
+    let full = mask.data.par_iter().all(|&m| m);
+    let (p, q, clamped) = support::sanitize(p, q, mask, full);
+    // A full mask is one part; the lsq solver needs the labels in every case.
+    let comps = (!full || opts.method == Method::Lsq).then(|| label_components(mask));
     let mut path_disagreement = None;
     let z: Vec<f32> = match opts.method {
         Method::Path => {
@@ -279,22 +281,35 @@ pub fn integrate_gradients_with_progress(
         }
         Method::FrankotChellappa { reflect } => fourier::integrate(&p, &q, w, h, reflect)?,
         Method::Dct => dct::integrate(&p, &q, w, h),
-        Method::Lsq => lsq::integrate(&p, &q, mask, opts.weights.as_ref(), &comps, progress)?,
+        Method::Lsq => {
+            let comps = comps
+                .as_ref()
+                .unwrap_or_else(|| unreachable!("labelled for lsq"));
+            lsq::integrate(&p, &q, mask, opts.weights.as_ref(), comps, progress)?
+        }
     };
-    if z.par_iter().any(|v| !v.is_finite()) {
-        return Err(Error::invalid(
+    let non_finite = || {
+        Error::invalid(
             "integration",
             "the solver produced non-finite depth; check the gradients for huge values",
-        ));
-    }
+        )
+    };
     let residual = support::edge_residual(&z, &p, &q, mask) as f32;
-    let depth = support::center_components(&z, &comps, w, h);
+    let (depth, parts) = match &comps {
+        Some(c) => {
+            if z.par_iter().any(|v| !v.is_finite()) {
+                return Err(non_finite());
+            }
+            (support::center_components(&z, c, w, h), c.count)
+        }
+        None => (support::center_full(z, w, h).ok_or_else(non_finite)?, 1),
+    };
     Ok(Output {
         depth,
         method: opts.method,
         clamped,
         path_disagreement,
-        components: comps.count,
+        components: parts,
         info: SolverInfo {
             iterations: 0,
             residual,

@@ -119,7 +119,7 @@ pub fn single_path(p: &GrayImage, q: &GrayImage, mask: &Mask, order: Order) -> R
     mask.check_size(q.width, q.height, "integration mask")?;
     mask.check_not_empty("integration mask")?;
     let (w, h) = (mask.width, mask.height);
-    let (pp, qq, _) = sanitize(p, q, mask);
+    let (pp, qq, _) = sanitize(p, q, mask, false);
     let reference = reference_pixel(mask).unwrap_or((h / 2, w / 2));
     let z: Vec<f32> = integrate_order(&pp, &qq, w, h, reference, order)
         .into_iter()

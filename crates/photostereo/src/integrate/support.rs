@@ -68,8 +68,8 @@ pub fn sanitize<'a>(
     p: &'a GrayImage,
     q: &'a GrayImage,
     mask: &Mask,
+    full: bool,
 ) -> (Cow<'a, [f32]>, Cow<'a, [f32]>, usize) {
-    let full = mask.data.par_iter().all(|&m| m);
     if full
         && p.data
             .par_iter()
@@ -142,6 +142,25 @@ pub fn edge_residual(z: &[f32], p: &[f32], q: &[f32], mask: &Mask) -> f64 {
     } else {
         (sum / n as f64).sqrt()
     }
+}
+
+/// Depth of a mask that covers the whole grid: shift `z` to mean 0 in place. `None`
+/// when `z` holds a non-finite value.
+pub fn center_full(mut z: Vec<f32>, w: usize, h: usize) -> Option<DepthMap> {
+    let sum: f64 = z
+        .par_chunks(w.max(1))
+        .map(|row| row.iter().map(|&v| v as f64).sum::<f64>())
+        .sum();
+    if !sum.is_finite() {
+        return None;
+    }
+    let mean = (sum / z.len().max(1) as f64) as f32;
+    z.par_iter_mut().for_each(|v| *v -= mean);
+    Some(Image {
+        width: w,
+        height: h,
+        data: z,
+    })
 }
 
 /// Shift every connected part to mean 0 and put NaN outside the mask.
