@@ -1,12 +1,162 @@
-//! `photostereo integrate` (to be written).
+//! `photostereo integrate`: normal map → depth map (and mesh).
 
+use crate::progress::Bar;
 use crate::Global;
+use anyhow::Context;
+use photostereo::integrate::{choose_method, solve_with_progress, Method, Options};
+use photostereo::{io, mesh, Mask};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// Arguments of `photostereo integrate`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+#[command(after_help = "Examples:
+  photostereo integrate normals.npy --mask mask.png -o depth.npy --mesh shape.ply
+  photostereo integrate normals.npy --method dct -o depth.npy
+  photostereo integrate normals.npy --mask mask.png --weights confidence.npy -o depth.npy --mesh shape.obj
+
+Writes DEPTH.npy (float32, H x W, pixel units, larger = closer, NaN outside the mask) and a
+false-colour DEPTH.png next to it. Methods: path (two cumulative paths, reports their
+disagreement), fc (Frankot-Chellappa, periodic), fc-reflect (FC on the mirrored field), dct
+(Poisson with Neumann boundary), lsq (masked sparse least squares; holes, several parts).")]
+pub struct Args {
+    /// Normal map: float32 .npy of shape (H, W, 3), camera frame (x right, y up, z to camera).
+    pub normals: PathBuf,
+    /// Object mask (PNG or .npy); default: the whole image.
+    #[arg(long)]
+    pub mask: Option<PathBuf>,
+    /// path, fc, fc-reflect, dct or lsq (default: lsq with a mask, dct without).
+    #[arg(long)]
+    pub method: Option<String>,
+    /// Output depth map (.npy); a .png preview is written next to it.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Also write a triangle mesh (.ply binary or .obj), pixel units.
+    #[arg(long)]
+    pub mesh: Option<PathBuf>,
+    /// Per-pixel confidence (float32 .npy, H x W, ≥ 0) weighting lsq.
+    #[arg(long)]
+    pub weights: Option<PathBuf>,
+    /// Albedo map (float32 .npy, H x W) used as grey vertex colour of the mesh.
+    #[arg(long)]
+    pub albedo: Option<PathBuf>,
+    /// Smallest accepted n_z; normals below it (or NaN) are clamped and counted.
+    #[arg(long, default_value_t = 0.05)]
+    pub min_nz: f32,
+}
+
+fn mesh_kind(path: &Path) -> anyhow::Result<&'static str> {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("ply") => Ok("ply"),
+        Some("obj") => Ok("obj"),
+        _ => anyhow::bail!("{}: the mesh must end in .ply or .obj", path.display()),
+    }
+}
 
 /// Run the subcommand.
-pub fn run(_args: Args, _global: Global) -> anyhow::Result<()> {
-    anyhow::bail!("`photostereo integrate` is not available yet")
+pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
+    // Check every argument before reading or computing anything.
+    if let Some(m) = &args.mesh {
+        mesh_kind(m)?;
+    }
+    anyhow::ensure!(
+        args.min_nz.is_finite() && (0.0..1.0).contains(&args.min_nz),
+        "--min-nz must be in [0, 1), got {}",
+        args.min_nz
+    );
+    let normals = io::read_normals_npy(&args.normals)?;
+    let mask = match &args.mask {
+        Some(p) => io::read_mask_any(p)?,
+        None => Mask::full(normals.width, normals.height),
+    };
+    mask.check_size(
+        normals.width,
+        normals.height,
+        &format!(
+            "mask {}",
+            args.mask.as_deref().unwrap_or(Path::new("")).display()
+        ),
+    )?;
+    let method = match &args.method {
+        Some(name) => Method::from_name(name)?,
+        None => choose_method(&mask),
+    };
+    let weights = args.weights.as_deref().map(io::read_gray_npy).transpose()?;
+    let albedo = args.albedo.as_deref().map(io::read_gray_npy).transpose()?;
+    let opts = Options {
+        method,
+        weights,
+        min_nz: args.min_nz,
+    };
+    let start = Instant::now();
+    let out = solve_with_progress(&normals, &mask, &opts, &Bar::new(global.quiet))
+        .with_context(|| format!("integrating {}", args.normals.display()))?;
+    let seconds = start.elapsed().as_secs_f64();
+    if out.clamped > 0 {
+        eprintln!(
+            "warning: {} normals inside the mask had n_z <= {} or NaN; they were clamped (slope limited to {:.0}, NaN counted as flat){}",
+            out.clamped,
+            args.min_nz,
+            1.0 / args.min_nz.max(f32::MIN_POSITIVE),
+            if args.mask.is_none() {
+                "; without --mask the background counts too: pass the object mask"
+            } else {
+                ""
+            }
+        );
+    }
+    // Build everything before writing anything.
+    let built_mesh = match &args.mesh {
+        Some(_) => Some(mesh::from_depth(
+            &out.depth,
+            &mask,
+            Some(&normals),
+            albedo.as_ref(),
+        )?),
+        None => None,
+    };
+    io::write_gray_npy(&args.output, &out.depth)?;
+    let png = args.output.with_extension("png");
+    io::write_depth_png(&png, &out.depth, Some(&mask))?;
+    if let (Some(path), Some(m)) = (&args.mesh, &built_mesh) {
+        let kind = mesh_kind(path)?;
+        io::write_atomic(path, |w| match kind {
+            "ply" => mesh::write_ply_binary(m, w),
+            _ => mesh::write_obj(m, w),
+        })?;
+    }
+    if !global.quiet {
+        println!(
+            "{}: {}x{}, {} pixels in {} part(s), method {}, {:.3} s",
+            args.normals.display(),
+            normals.width,
+            normals.height,
+            mask.count(),
+            out.components,
+            method.name(),
+            seconds
+        );
+        println!(
+            "gradient residual (RMS per pixel step): {:.4}",
+            out.info.residual
+        );
+        if let Some(d) = out.path_disagreement {
+            println!("path disagreement (RMS, pixels): {d:.4}");
+        }
+        println!("wrote {} and {}", args.output.display(), png.display());
+        if let (Some(path), Some(m)) = (&args.mesh, &built_mesh) {
+            println!(
+                "wrote {} ({} vertices, {} triangles)",
+                path.display(),
+                m.vertices.len(),
+                m.faces.len()
+            );
+        }
+    }
+    Ok(())
 }
