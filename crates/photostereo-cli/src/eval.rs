@@ -127,3 +127,73 @@ fn table(normals: Option<&NormalStats>, depth: Option<&DepthStats>) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use photostereo::image::{normalize, Image};
+
+    fn args(dir: &std::path::Path) -> Args {
+        Args {
+            normals: Some(dir.join("est.npy")),
+            gt: Some(dir.join("gt.npy")),
+            mask: Some(dir.join("mask.png")),
+            depth: Some(dir.join("d_est.npy")),
+            depth_gt: Some(dir.join("d_gt.npy")),
+            error_png: Some(dir.join("err.png")),
+            json: false,
+        }
+    }
+
+    /// Ground truth tilted 7° from the view axis about x; estimate straight on: 7°.
+    fn write_inputs(dir: &std::path::Path) {
+        let t = 7f32.to_radians();
+        let gt = Image::filled(6, 5, normalize([0.0, t.sin(), t.cos()]));
+        let est = Image::filled(6, 5, [0.0, 0.0, 1.0]);
+        io::write_normals(&dir.join("gt.npy"), &gt).unwrap();
+        io::write_normals(&dir.join("est.npy"), &est).unwrap();
+        io::write_mask_png(&dir.join("mask.png"), &Image::from_fn(6, 5, |r, _| r > 0)).unwrap();
+        let depth = Image::from_fn(6, 5, |r, c| (r * c) as f32);
+        io::write_gray_npy(&dir.join("d_gt.npy"), &depth).unwrap();
+        io::write_gray_npy(&dir.join("d_est.npy"), &depth.map(|v| v + 2.0)).unwrap();
+    }
+
+    #[test]
+    fn evaluates_files_and_reports_the_numbers() {
+        let dir = std::env::temp_dir().join(format!("ps_cli_eval_{}", std::process::id()));
+        write_inputs(&dir);
+        let a = args(&dir);
+        let mask = io::read_mask_any(a.mask.as_ref().unwrap()).unwrap();
+        let n = eval_normals(
+            a.normals.as_ref().unwrap(),
+            a.gt.as_ref().unwrap(),
+            Some(&mask),
+            &a,
+        )
+        .unwrap();
+        assert!(
+            (n.mean - 7.0).abs() < 1e-3 && (n.median - 7.0).abs() < 1e-3,
+            "{n:?}"
+        );
+        assert_eq!(n.count, 24);
+        assert!(dir.join("err.png").exists());
+        let text = table(Some(&n), None);
+        assert!(text.contains("7.000°"), "{text}");
+        run(args(&dir), Global { quiet: true }).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn bad_input_is_an_error_not_a_panic() {
+        let dir = std::env::temp_dir().join(format!("ps_cli_eval_bad_{}", std::process::id()));
+        write_inputs(&dir);
+        let mut a = args(&dir);
+        a.gt = Some(dir.join("d_gt.npy")); // a depth map is not a normal map
+        let err = run(a, Global { quiet: true }).unwrap_err().to_string();
+        assert!(err.contains("d_gt.npy"), "{err}");
+        let mut a = args(&dir);
+        (a.normals, a.gt, a.depth, a.depth_gt) = (None, None, None, None);
+        assert!(run(a, Global { quiet: true }).is_err());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -74,22 +74,7 @@ pub fn load_dataset(dir: &Path, opts: &LoadOptions) -> Result<Dataset> {
     }
     let files = list_images(dir)?;
     let k = files.len();
-    let raw_intensities = optional(dir.join("light_intensities.txt"), |p| {
-        let v = read_intensities(p)?;
-        check_count(p, k, v.len(), "one intensity line per image")?;
-        Ok(v)
-    })?;
-    let lights = optional(dir.join("light_directions.txt"), |p| {
-        let l = read_lights(p)?;
-        check_count(p, k, l.len(), "one direction line per image")?;
-        Ok(l)
-    })?;
-    if opts.require_lights && lights.is_none() {
-        return Err(Error::NotFound {
-            path: dir.join("light_directions.txt"),
-            fix: "this method needs the light directions: calibrate them first".into(),
-        });
-    }
+    let (lights, raw_intensities) = read_light_files(dir, k, opts)?;
     let scales: Vec<Option<[f32; 3]>> = (0..k)
         .map(|i| match &raw_intensities {
             Some(v) if opts.apply_intensities => Some(v[i]),
@@ -117,13 +102,6 @@ pub fn load_dataset(dir: &Path, opts: &LoadOptions) -> Result<Dataset> {
                 .into_owned()
         })
         .collect();
-    let lights = lights.map(|mut l| {
-        l.intensities = match (&raw_intensities, opts.apply_intensities) {
-            (Some(v), false) => v.iter().map(|t| luminance(*t)).collect(),
-            _ => vec![1.0; k],
-        };
-        l
-    });
     Ok(Dataset {
         stack,
         lights,
@@ -133,6 +111,36 @@ pub fn load_dataset(dir: &Path, opts: &LoadOptions) -> Result<Dataset> {
         dir: dir.to_path_buf(),
         bit_depth,
     })
+}
+
+/// `light_directions.txt` and `light_intensities.txt` of `dir`, checked against the
+/// number of images `k`. The lights' intensities are 1 when the intensities are
+/// applied to the images, else the luminance of each entry.
+fn read_light_files(
+    dir: &Path,
+    k: usize,
+    opts: &LoadOptions,
+) -> Result<(Option<Lights>, Option<Vec<[f32; 3]>>)> {
+    let raw = optional(dir.join("light_intensities.txt"), |p| {
+        let v = read_intensities(p)?;
+        check_count(p, k, v.len(), "one intensity line per image")?;
+        Ok(v)
+    })?;
+    let lights = optional(dir.join("light_directions.txt"), |p| {
+        let mut l = read_lights(p)?;
+        check_count(p, k, l.len(), "one direction line per image")?;
+        if let (Some(v), false) = (&raw, opts.apply_intensities) {
+            l.intensities = v.iter().map(|t| luminance(*t)).collect();
+        }
+        Ok(l)
+    })?;
+    if opts.require_lights && lights.is_none() {
+        return Err(Error::NotFound {
+            path: dir.join("light_directions.txt"),
+            fix: "this method needs the light directions: calibrate them first".into(),
+        });
+    }
+    Ok((lights, raw))
 }
 
 fn luminance(t: [f32; 3]) -> f32 {
