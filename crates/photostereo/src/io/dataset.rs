@@ -113,6 +113,9 @@ pub fn load_dataset(dir: &Path, opts: &LoadOptions) -> Result<Dataset> {
     })
 }
 
+/// The lights and the raw intensity triples of a dataset, each if present.
+type LightFiles = (Option<Lights>, Option<Vec<[f32; 3]>>);
+
 /// `light_directions.txt` and `light_intensities.txt` of `dir`, checked against the
 /// number of images `k`. The lights' intensities are 1 when the intensities are
 /// applied to the images, else the luminance of each entry.
@@ -120,7 +123,7 @@ fn read_light_files(
     dir: &Path,
     k: usize,
     opts: &LoadOptions,
-) -> Result<(Option<Lights>, Option<Vec<[f32; 3]>>)> {
+) -> Result<LightFiles> {
     let raw = optional(dir.join("light_intensities.txt"), |p| {
         let v = read_intensities(p)?;
         check_count(p, k, v.len(), "one intensity line per image")?;
