@@ -119,11 +119,7 @@ type LightFiles = (Option<Lights>, Option<Vec<[f32; 3]>>);
 /// `light_directions.txt` and `light_intensities.txt` of `dir`, checked against the
 /// number of images `k`. The lights' intensities are 1 when the intensities are
 /// applied to the images, else the luminance of each entry.
-fn read_light_files(
-    dir: &Path,
-    k: usize,
-    opts: &LoadOptions,
-) -> Result<LightFiles> {
+fn read_light_files(dir: &Path, k: usize, opts: &LoadOptions) -> Result<LightFiles> {
     let raw = optional(dir.join("light_intensities.txt"), |p| {
         let v = read_intensities(p)?;
         check_count(p, k, v.len(), "one intensity line per image")?;
