@@ -1,33 +1,74 @@
 //! `photostereo synth`: render a synthetic dataset with ground truth.
+//!
+//! Output directory (DiLiGenT layout, read back by `photostereo` and most tools):
+//! `001.png` … (16-bit gray), `filenames.txt`, `light_directions.txt`,
+//! `light_intensities.txt`, `mask.png`, and the ground truth `normal_gt.npy` (H, W, 3),
+//! `normal_gt.png`, `depth_gt.npy` (NaN outside the mask), `albedo_gt.npy`, plus
+//! `scene.json` (the parameters). With `--calib-sphere R`, `DIR/sphere/` holds a sphere
+//! of radius R of the same material under the same lights, in the same layout.
+//!
+//! Exposure: images are written as e·radiance clipped to [0, 1] and every light
+//! intensity is written as e, so a loader that divides by the intensities gets the
+//! radiance back. `--exposure auto` (default) picks e = min(1, 0.98/peak radiance) over
+//! the target and the sphere, so highlights do not clip. `--noise` is in units of the
+//! written images (full scale 1), i.e. σ/e in radiance units after loading.
 
 use crate::progress::Bar;
 use crate::Global;
 use anyhow::Context;
+use photostereo::io;
 use photostereo::synth::{
-    default_lights, render_with_progress, Material, SceneOptions, Shape, ShapeKind,
+    default_lights, peak_radiance, render_calibration_sphere, render_with_progress, Material,
+    Scene, SceneOptions, Shape, ShapeKind,
 };
+use std::path::{Path, PathBuf};
 
 /// Arguments of `photostereo synth`.
 #[derive(clap::Args, Debug)]
-#[command(
-    after_help = "Example:\n  photostereo synth --shape vase --material plastic -k 16 --size 256 --noise 0.01 -o data/vase"
-)]
+#[command(after_help = "Examples:
+  photostereo synth --shape vase --material plastic -k 16 --size 256 --noise 0.01 -o data/vase
+  photostereo synth --shape bowl --material lambertian --albedo-texture -o data/bowl --calib-sphere 100")]
 pub struct Args {
-    /// Shape: blob, sphere, vase, bowl or vgroove.
+    /// Shape: blob, sphere, vase, bowl or vgroove (scaled to the image size).
     #[arg(long, default_value = "blob")]
     pub shape: String,
-    /// Material: lambertian, plastic (GGX), metal (GGX, no diffuse) or phong.
+    /// Material: lambertian (albedo 0.8), plastic (GGX kd 0.7, F0 0.04, α 0.1),
+    /// metal (GGX kd 0, F0 0.9, α 0.2) or phong (Blinn–Phong kd 0.7, ks 0.5, n 50).
     #[arg(long, default_value = "plastic")]
     pub material: String,
-    /// Number of lights (15–60° from the view axis).
-    #[arg(short = 'k', long, default_value_t = 16)]
+    /// Number of lights, spread 15–60° from the view axis.
+    #[arg(short = 'k', long = "lights", default_value_t = 16)]
     pub lights: usize,
     /// Image width and height (pixels).
     #[arg(long, default_value_t = 256)]
     pub size: usize,
+    /// Standard deviation of Gaussian noise, relative to the full scale of the images.
+    #[arg(long, default_value_t = 0.0)]
+    pub noise: f32,
+    /// Spatially varying albedo (a smooth texture in [0.4, 1]).
+    #[arg(long)]
+    pub albedo_texture: bool,
+    /// No cast shadows (attached shadows stay).
+    #[arg(long)]
+    pub no_shadows: bool,
+    /// Seed of the noise and of the albedo texture.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Exposure: `auto` (no clipping) or a factor applied to every radiance.
+    #[arg(long, default_value = "auto")]
+    pub exposure: String,
+    /// Value of the background outside the mask (0 = black).
+    #[arg(long, default_value_t = 0.0)]
+    pub background: f32,
+    /// Also render a calibration sphere of this radius (pixels) into DIR/sphere/.
+    #[arg(long, value_name = "RADIUS")]
+    pub calib_sphere: Option<f64>,
     /// Add interreflections: all bounces by radiosity on 2×2-pixel facets (Lambertian only).
     #[arg(long)]
     pub interreflections: bool,
+    /// Output directory (created).
+    #[arg(short = 'o', long = "output", value_name = "DIR")]
+    pub output: PathBuf,
 }
 
 fn material(name: &str) -> anyhow::Result<Material> {
@@ -45,14 +86,21 @@ fn material(name: &str) -> anyhow::Result<Material> {
 /// Run the subcommand.
 pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     let kind: ShapeKind = args.shape.parse()?;
-    let opts = SceneOptions {
+    let mut opts = SceneOptions {
         width: args.size,
         height: args.size,
         shape: Shape::preset(kind, args.size, args.size),
         material: material(&args.material)?,
         lights: default_lights(args.lights),
-        ..Default::default()
+        cast_shadows: !args.no_shadows,
+        albedo_texture: args.albedo_texture,
+        noise_sigma: args.noise,
+        quantize_16bit: true,
+        seed: args.seed,
+        exposure: 1.0,
+        background: args.background,
     };
+    opts.exposure = exposure(&args, &opts)?;
     let bar = Bar::new(global.quiet);
     let scene = if args.interreflections {
         let radiosity = photostereo::interreflect::RadiosityOptions::default();
@@ -60,16 +108,112 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             .context("rendering with interreflections")?
             .0
     } else {
-        render_with_progress(&opts, &bar).context("rendering")?
+        render_with_progress(&opts, &bar).context("rendering the scene")?
     };
+    let sphere = match args.calib_sphere {
+        Some(r) => Some(render_calibration_sphere(&opts, r).context("rendering the sphere")?),
+        None => None,
+    };
+    write_scene(
+        &args.output,
+        &scene,
+        &opts,
+        &opts.shape,
+        opts.albedo_texture,
+    )?;
+    if let (Some(s), Some(radius)) = (&sphere, args.calib_sphere) {
+        let shape = Shape::Sphere { radius };
+        write_scene(&args.output.join("sphere"), s, &opts, &shape, false)?;
+    }
     if !global.quiet {
         println!(
-            "rendered {}x{}x{}, {} pixels in the mask",
-            scene.stack.width,
-            scene.stack.height,
-            scene.stack.k,
-            scene.mask.count()
+            "wrote {} ({}x{}, {} lights, {} pixels in the mask, exposure {:.4}){}",
+            args.output.display(),
+            opts.width,
+            opts.height,
+            opts.lights.len(),
+            scene.mask.count(),
+            opts.exposure,
+            if sphere.is_some() { " and sphere/" } else { "" }
         );
     }
-    anyhow::bail!("writing the dataset needs the `io` module, which is not merged yet")
+    Ok(())
+}
+
+/// Brightest sample of an auto-exposed dataset, as a fraction of full scale (below 1 so
+/// that loaders do not flag it as clipped).
+const HEADROOM: f32 = 0.98;
+
+/// The exposure factor: parsed, or `auto` = min(1, 0.98/peak) over target and sphere.
+fn exposure(args: &Args, opts: &SceneOptions) -> anyhow::Result<f32> {
+    if args.exposure != "auto" {
+        let e: f32 = args.exposure.parse().map_err(|_| {
+            anyhow::anyhow!(
+                "--exposure `{}`: give `auto` or a number > 0",
+                args.exposure
+            )
+        })?;
+        anyhow::ensure!(e.is_finite() && e > 0.0, "--exposure must be > 0, got {e}");
+        return Ok(e);
+    }
+    let mut peak = peak_radiance(opts)?;
+    if let Some(r) = args.calib_sphere {
+        let side = (2.0 * r.max(0.0)).ceil().min(1e5) as usize + 4;
+        let sphere = SceneOptions {
+            width: side,
+            height: side,
+            shape: Shape::Sphere { radius: r },
+            ..opts.clone()
+        };
+        peak = peak.max(peak_radiance(&sphere).context("calibration sphere")?);
+    }
+    Ok(if peak > HEADROOM {
+        HEADROOM / peak
+    } else {
+        1.0
+    })
+}
+
+/// Write one scene (dataset + ground truth + parameters) into `dir`.
+fn write_scene(
+    dir: &Path,
+    scene: &Scene,
+    opts: &SceneOptions,
+    shape: &Shape,
+    albedo_texture: bool,
+) -> anyhow::Result<()> {
+    let mut lights = scene.lights.clone();
+    for v in &mut lights.intensities {
+        *v *= opts.exposure;
+    }
+    io::write_dataset(dir, &scene.stack, &lights, Some(&scene.mask), 16)
+        .with_context(|| format!("writing the dataset {}", dir.display()))?;
+    io::write_normals(&dir.join("normal_gt.npy"), &scene.normals)?;
+    io::write_normals_png(
+        &dir.join("normal_gt.png"),
+        &scene.normals,
+        Some(&scene.mask),
+    )?;
+    io::write_gray_npy(&dir.join("depth_gt.npy"), &scene.depth)?;
+    io::write_gray_npy(&dir.join("albedo_gt.npy"), &scene.albedo)?;
+    let (w, h) = (scene.stack.width, scene.stack.height);
+    let params = serde_json::json!({
+        "shape": format!("{shape:?}"),
+        "material": format!("{:?}", opts.material),
+        "width": w,
+        "height": h,
+        "lights": opts.lights.len(),
+        "cast_shadows": opts.cast_shadows,
+        "albedo_texture": albedo_texture,
+        "noise_sigma": opts.noise_sigma,
+        "exposure": opts.exposure,
+        "background": opts.background,
+        "seed": opts.seed,
+        "bit_depth": 16,
+    });
+    io::write_text(
+        &dir.join("scene.json"),
+        &serde_json::to_string_pretty(&params)?,
+    )?;
+    Ok(())
 }

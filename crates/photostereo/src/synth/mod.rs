@@ -156,6 +156,23 @@ pub fn render_calibration_sphere(opts: &SceneOptions, radius: f64) -> Result<Sce
     render(&sphere)
 }
 
+/// The largest radiance of the scene before exposure and noise, ignoring cast shadows
+/// (an upper bound of the brightest sample): max over mask pixels and lights of
+/// i_k·shade(n, l_k, ρ). The CLI divides by it to avoid clipping highlights in 16-bit
+/// images. 0 for an empty mask.
+pub fn peak_radiance(opts: &SceneOptions) -> Result<f32> {
+    validate(opts)?;
+    let (_, mask, normals) = shape_geometry(&opts.shape, opts.width, opts.height);
+    let texture_max = 1.0; // the albedo texture never exceeds 1
+    let mut peak = 0f32;
+    for (n, _) in normals.data.iter().zip(&mask.data).filter(|(_, &m)| m) {
+        for (l, i) in opts.lights.directions.iter().zip(&opts.lights.intensities) {
+            peak = peak.max(shade(&opts.material, *n, *l, texture_max) * i);
+        }
+    }
+    Ok(peak)
+}
+
 fn validate(opts: &SceneOptions) -> Result<()> {
     if opts.width == 0 || opts.height == 0 {
         return Err(Error::invalid(

@@ -1,0 +1,113 @@
+//! `photostereo synth` writes a dataset that loads back to the rendered radiance.
+
+use photostereo::io::{load_dataset, read_gray_npy, read_normals_npy, LoadOptions};
+use photostereo::synth::{default_lights, render, Material, SceneOptions, Shape, ShapeKind};
+use std::path::PathBuf;
+use std::process::Command;
+
+fn out_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "photostereo-synth-cli-{}-{name}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn synth_writes_a_dataset_that_loads_back_to_the_radiance() {
+    let dir = out_dir("vase");
+    let status = Command::new(env!("CARGO_BIN_EXE_photostereo"))
+        .args([
+            "-q",
+            "synth",
+            "--shape",
+            "vase",
+            "--material",
+            "plastic",
+            "-k",
+            "8",
+        ])
+        .args(["--size", "40", "--calib-sphere", "12", "-o"])
+        .arg(&dir)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    // The same scene in memory (float radiance, exposure 1).
+    let opts = SceneOptions {
+        width: 40,
+        height: 40,
+        shape: Shape::preset(ShapeKind::Vase, 40, 40),
+        material: Material::shiny_plastic(),
+        lights: default_lights(8),
+        ..Default::default()
+    };
+    let scene = render(&opts).unwrap();
+    let data = load_dataset(&dir, &LoadOptions::default()).unwrap();
+    assert_eq!(data.stack.k, 8);
+    assert_eq!(data.mask.as_ref().unwrap(), &scene.mask);
+    assert_eq!(data.saturated, 0, "auto exposure must avoid clipping");
+    let e = std::fs::read_to_string(dir.join("light_intensities.txt")).unwrap();
+    let e: f32 = e.split_whitespace().next().unwrap().parse().unwrap();
+    assert!(e > 0.0 && e <= 1.0);
+    // Loaded = quantised(e·radiance)/e: error at most half a 16-bit level over e.
+    let tol = 0.5 / 65535.0 / e + 1e-6;
+    let max_err = scene
+        .stack
+        .data
+        .iter()
+        .zip(&data.stack.data)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0f32, f32::max);
+    assert!(max_err <= tol, "max error {max_err} > {tol}");
+    let lights = data.lights.unwrap();
+    for (a, b) in lights.directions.iter().zip(&scene.lights.directions) {
+        assert!((0..3).all(|j| (a[j] - b[j]).abs() < 1e-6));
+    }
+    // Ground truth files.
+    assert_eq!(
+        read_normals_npy(&dir.join("normal_gt.npy")).unwrap(),
+        scene.normals
+    );
+    let depth = read_gray_npy(&dir.join("depth_gt.npy")).unwrap();
+    for (a, b) in depth.data.iter().zip(&scene.depth.data) {
+        assert!(a == b || (a.is_nan() && b.is_nan()));
+    }
+    assert_eq!(
+        read_gray_npy(&dir.join("albedo_gt.npy")).unwrap(),
+        scene.albedo
+    );
+    // The calibration sphere: 28x28, disc mask of radius 12.
+    let sphere = load_dataset(&dir.join("sphere"), &LoadOptions::default()).unwrap();
+    assert_eq!((sphere.stack.width, sphere.stack.height), (28, 28));
+    let area = sphere.mask.unwrap().count() as f64;
+    assert!(
+        (area / (std::f64::consts::PI * 144.0) - 1.0).abs() < 0.03,
+        "{area}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn synth_rejects_bad_arguments_without_writing() {
+    for (args, needle) in [
+        (vec!["--shape", "cube"], "shape `cube`"),
+        (vec!["--material", "wood"], "unknown material"),
+        (vec!["--size", "0"], "at least 1 pixel"),
+        (vec!["--exposure=-2"], "exposure"),
+        (vec!["--shape", "sphere", "--calib-sphere=-3"], "radius"),
+    ] {
+        let dir = out_dir("bad");
+        let out = Command::new(env!("CARGO_BIN_EXE_photostereo"))
+            .args(["-q", "synth"])
+            .args(&args)
+            .arg("-o")
+            .arg(&dir)
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(needle), "{args:?}: `{err}`");
+        assert!(!dir.exists(), "{args:?} left {}", dir.display());
+    }
+}
