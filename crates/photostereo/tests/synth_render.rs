@@ -2,8 +2,8 @@
 
 use photostereo::image::{dot3, normalize, pixel_to_xy, Lights};
 use photostereo::synth::{
-    default_lights, render, render_calibration_sphere, shade, shape_geometry, Bump, Material,
-    SceneOptions, Shape, ShapeKind,
+    default_lights, peak_radiance, render, render_calibration_sphere, shade, shape_geometry, Bump,
+    Material, SceneOptions, Shape, ShapeKind,
 };
 
 fn opts(shape: Shape, material: Material, size: usize) -> SceneOptions {
@@ -477,5 +477,42 @@ fn bad_options_give_clear_errors() {
     for (o, needle) in cases {
         let err = render(&o).unwrap_err().to_string();
         assert!(err.contains(needle), "`{err}` lacks `{needle}`");
+    }
+}
+
+#[test]
+fn background_fills_every_image_outside_the_mask() {
+    let o = SceneOptions {
+        background: 0.25,
+        ..opts(Shape::Sphere { radius: 20.0 }, Material::metal(), 50)
+    };
+    let s = render(&o).unwrap();
+    let outside = (0..s.mask.len()).filter(|&i| !s.mask.data[i]).count();
+    assert!(outside > 1000);
+    for i in (0..s.mask.len()).filter(|&i| !s.mask.data[i]) {
+        assert!(s.stack.pixel_flat(i).iter().all(|&v| v == 0.25));
+        assert_eq!(s.albedo.data[i], 0.0);
+        assert!(s.depth.data[i].is_nan());
+    }
+}
+
+#[test]
+fn peak_radiance_is_the_brightest_unshadowed_sample() {
+    for material in [
+        Material::metal(),
+        Material::shiny_plastic(),
+        Material::lambertian(0.5),
+    ] {
+        let o = SceneOptions {
+            cast_shadows: false,
+            ..opts(Shape::preset(ShapeKind::Vase, 64, 64), material, 64)
+        };
+        let s = render(&o).unwrap();
+        let max = s.stack.data.iter().copied().fold(0f32, f32::max);
+        let peak = peak_radiance(&o).unwrap();
+        assert!(
+            (peak - max).abs() <= 1e-6 * max,
+            "{material:?}: {peak} vs {max}"
+        );
     }
 }
