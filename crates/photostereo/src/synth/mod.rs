@@ -9,14 +9,17 @@
 //!
 //! with e the `exposure`, i_k the light intensity, ρ the optional albedo texture and
 //! [`shade`] the BRDF ([`Material`]: Lambertian, Blinn–Phong, GGX/Cook–Torrance). Attached
-//! shadows (n·l ≤ 0) are zero through the BRDF; cast shadows come from marching a ray
-//! toward each light over the height field ([`shadow`]). Pixels outside the mask get
-//! `background` in every image. Only direct light is simulated (no interreflections).
+//! shadows (n·l ≤ 0) are zero through the BRDF; cast shadows are exact tests of the ray
+//! toward each light against the analytic surface ([`shadow`]: none on the convex sphere
+//! and blob, closed forms for the bowl and the V-groove, a ray march with provably safe
+//! steps for the vase). Pixels outside the mask get `background` in every image. Only
+//! direct light is simulated (no interreflections).
 //!
 //! Intensity scale: a Lambertian surface of albedo 1 facing a light of intensity 1 gives
 //! 1, so I = ρ·max(n·l, 0) for Lambertian. Specular highlights may exceed 1: the stack
 //! is float. With `quantize_16bit` every sample is clipped to [0, 1] and rounded to a
-//! multiple of 1/65535 (error ≤ 1/131070) — lower `exposure` to avoid clipping highlights.
+//! multiple of 1/65535 (error ≤ 1/131070) — lower `exposure` to avoid clipping highlights;
+//! [`peak_radiance`] gives the brightest sample to choose it (`photostereo synth` does).
 //!
 //! Noise: i.i.d. Gaussian N(0, σ²) added to every sample (background included) after
 //! exposure and before quantisation; values may go negative unless quantised.
