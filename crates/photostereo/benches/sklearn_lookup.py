@@ -112,7 +112,7 @@ def main():
     print(out.rstrip())
     for line in out.splitlines():
         if line.startswith("lookup"):
-            rate = float(line.split()[3])
+            rate = float(line.split()[4])
             print(f"photostereo lookup {rate:.2f} Mpx/s = {rate / sk_rate:.1f}x scikit-learn "
                   f"(target: >= 10x and >= 5 Mpx/s)")
 
