@@ -4,7 +4,7 @@
 mod sphere_support;
 
 use photostereo::error::Error;
-use photostereo::image::{Image, ImageStack};
+use photostereo::image::ImageStack;
 use photostereo::lightcal::{from_chrome_sphere, from_matte_sphere, ChromeOptions, MatteOptions};
 use photostereo::sphere::{detect, Circle, DetectOptions};
 use photostereo::synth::{default_lights, render_calibration_sphere, Material, SceneOptions};
@@ -152,13 +152,7 @@ fn real_chrome_sphere_against_published_lights() {
     };
     let dir = shared.join("data/real/chrome");
     let stack = sphere_support::load_png_dir(&dir);
-    let mask = image::open(dir.join("mask.png")).unwrap().to_luma8();
-    let mask = Image::from_vec(
-        mask.width() as usize,
-        mask.height() as usize,
-        mask.pixels().map(|p| p.0[0] > 127).collect(),
-    )
-    .unwrap();
+    let mask = photostereo::io::read_mask(&dir.join("mask.png")).unwrap();
     let det = DetectOptions {
         mask: Some(mask),
         mask_outline: true,

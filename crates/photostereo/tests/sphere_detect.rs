@@ -263,13 +263,7 @@ fn real_chrome_sphere() {
         ),
         Err(e) => println!("real chrome, from the images: {e}"),
     }
-    let mask = image::open(dir.join("mask.png")).unwrap().to_luma8();
-    let mask = Image::from_vec(
-        mask.width() as usize,
-        mask.height() as usize,
-        mask.pixels().map(|p| p.0[0] > 127).collect(),
-    )
-    .unwrap();
+    let mask = photostereo::io::read_mask(&dir.join("mask.png")).unwrap();
     let opts = DetectOptions {
         mask: Some(mask),
         mask_outline: true,
