@@ -1,0 +1,371 @@
+//! `photostereo calibrate` and `photostereo normals` end to end: a synthetic dataset with
+//! its calibration sphere is written by `photostereo synth` (DiLiGenT layout, ground truth
+//! beside the images), the sphere is calibrated, the target solved by lookup and by
+//! Lambertian least squares, and the normals read back and compared with the ground truth.
+//! Bad input (no sphere, a circle outside the image, K = 2, a table of other lights) must
+//! fail with a message naming the thing and the fix, and leave no output file behind.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use photostereo::image::ImageStack;
+use photostereo::io;
+use photostereo::lut::Table;
+use photostereo::synth::default_lights;
+use photostereo::{GrayImage, Mask, NormalMap};
+
+/// A fresh, empty directory under Cargo's scratch space for integration tests.
+fn tmp(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("lut-cli")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Run the executable; (success, stdout, stderr).
+fn photostereo(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_photostereo"))
+        .args(args)
+        .output()
+        .expect("start photostereo");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    println!("$ photostereo {}\n{stdout}{stderr}", args.join(" "));
+    (out.status.success(), stdout, stderr)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// `photostereo synth` into `dir`: a `size`² blob of `material` under `k` lights and, with
+/// `sphere`, a calibration sphere of that radius in `dir/sphere` (image side ⌈2R⌉+4).
+fn synth(dir: &Path, material: &str, k: usize, size: usize, sphere: Option<f64>) {
+    let (k, size) = (k.to_string(), size.to_string());
+    let mut args = vec!["-q", "synth", "--material", material, "-k", &k];
+    args.extend(["--size", &size, "-o", s(dir)]);
+    let r = sphere.map(|r| r.to_string());
+    if let Some(r) = &r {
+        args.extend(["--calib-sphere", r]);
+    }
+    let (ok, _, err) = photostereo(&args);
+    assert!(ok, "synth failed: {err}");
+}
+
+/// Angular error (degrees) of every mask pixel; asserts each estimate is a unit vector.
+fn errors(est: &NormalMap, gt: &NormalMap, mask: &Mask) -> Vec<(f64, usize)> {
+    assert_eq!((est.width, est.height), (gt.width, gt.height));
+    let mut out = Vec::new();
+    for (i, (e, g)) in est.data.iter().zip(&gt.data).enumerate() {
+        if !mask.data[i] {
+            continue;
+        }
+        let len = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+        assert!(
+            (len - 1.0).abs() < 1e-3,
+            "pixel {i}: normal {e:?} is not a unit vector"
+        );
+        let d = (e[0] * g[0] + e[1] * g[1] + e[2] * g[2]) as f64 / len as f64;
+        out.push((d.clamp(-1.0, 1.0).acos().to_degrees(), i));
+    }
+    out
+}
+
+fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let (sum, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    sum / n.max(1) as f64
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+/// Parse "cx A, cy B, r C" from the calibrate output.
+fn printed_circle(stdout: &str) -> [f64; 3] {
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("sphere circle"))
+        .expect("the circle is printed");
+    let num = |key: &str| -> f64 {
+        let rest = &line[line.find(key).unwrap() + key.len()..];
+        let end = rest.find([',', ' ']).unwrap_or(rest.len());
+        rest[..end].parse().unwrap()
+    };
+    [num("cx "), num("cy "), num(" r ")]
+}
+
+#[test]
+fn calibrate_then_lookup_and_lambertian_normals_match_the_ground_truth() {
+    let data = tmp("plastic");
+    // GGX shiny plastic blob 80², 12 lights; sphere of radius 40 in an 84² image, centre (42, 42)
+    synth(&data, "plastic", 12, 80, Some(40.0));
+    let lut = data.join("calib/plastic.lut");
+    let (ok, stdout, err) = photostereo(&[
+        "calibrate",
+        s(&data.join("sphere")),
+        "--material",
+        "shiny plastic",
+        "-o",
+        s(&lut),
+    ]);
+    assert!(ok, "{err}");
+    assert!(stdout.contains("sphere circle (detected)"), "{stdout}");
+    let [cx, cy, r] = printed_circle(&stdout);
+    println!("circle found: cx {cx}, cy {cy}, r {r} (true 42, 42, 40)");
+    // noise-free render: within 0.1 px (the printout rounds to 0.01 px)
+    assert!((cx - 42.0).abs() < 0.1 && (cy - 42.0).abs() < 0.1 && (r - 40.0).abs() < 0.1);
+    assert!(data.join("calib/overlay.png").is_file(), "overlay written");
+    let overlay = io::read_gray_image(&data.join("calib/overlay.png"), None);
+    assert!(overlay.is_ok(), "overlay is a readable image");
+    let table = Table::from_bytes(&std::fs::read(&lut).unwrap()).unwrap();
+    assert_eq!(table.k, 12);
+    assert_eq!(table.material, "shiny plastic");
+    assert_eq!(table.names.first().map(String::as_str), Some("001.png"));
+    assert!((table.circle.radius - r).abs() < 0.01);
+
+    let gt = io::read_normals_npy(&data.join("normal_gt.npy")).unwrap();
+    let mask = io::read_mask(&data.join("mask.png")).unwrap();
+    let out = data.join("lut-out");
+    let (ok, _, err) = photostereo(&["normals", s(&data), "--lut", s(&lut), "-o", s(&out)]);
+    assert!(ok, "{err}");
+    for f in [
+        "normals.npy",
+        "normals.png",
+        "confidence.npy",
+        "residual.npy",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let normals = io::read_normals_npy(&out.join("normals.npy")).unwrap();
+    let conf: GrayImage = io::read_gray_npy(&out.join("confidence.npy")).unwrap();
+    let err = errors(&normals, &gt, &mask);
+    let all = mean(err.iter().map(|e| e.0));
+    let med = median(err.iter().map(|e| e.0).collect());
+    let confident: Vec<f64> = err
+        .iter()
+        .filter(|(_, i)| conf.data[*i] >= 0.5)
+        .map(|e| e.0)
+        .collect();
+    let trusted = mean(confident.iter().copied());
+    println!(
+        "lookup: mean {all:.3}°, median {med:.3}° over {} pixels; {:.3}° over the {} with confidence ≥ 0.5",
+        err.len(),
+        trusted,
+        confident.len()
+    );
+    for &(_, i) in &err {
+        let c = conf.data[i];
+        assert!((0.0..=1.0).contains(&c), "confidence {c} at pixel {i}");
+    }
+    // A radius-40 table of a 16-bit render: sub-pixel-spacing accuracy inside the table's
+    // range; the whole-mask mean is held up by the blob's grazing rim (normals within a few
+    // degrees of 90°, beyond the table's 2 px rim), which gets low confidence.
+    assert!(med < 0.1, "median {med}°");
+    assert!(all < 0.75, "whole-mask mean {all}°");
+    assert!(confident.len() * 10 >= err.len() * 9, "≥ 90% confident");
+    assert!(trusted < 0.2, "mean over confident pixels {trusted}°");
+
+    // Lambertian least squares on the same shiny target: with the rejection of shadowed and
+    // highlight samples (default) far better than plain least squares
+    let lam = data.join("lambertian-out");
+    let plain = data.join("plain-out");
+    let (ok, _, err) = photostereo(&["normals", s(&data), "--lambertian", "-o", s(&lam)]);
+    assert!(ok, "{err}");
+    let (ok, _, err) = photostereo(&[
+        "normals",
+        s(&data),
+        "--lambertian",
+        "--plain",
+        "-o",
+        s(&plain),
+    ]);
+    assert!(ok, "{err}");
+    for f in ["normals.npy", "normals.png", "albedo.npy"] {
+        assert!(lam.join(f).is_file(), "{f} missing");
+    }
+    let robust = mean(
+        errors(
+            &io::read_normals_npy(&lam.join("normals.npy")).unwrap(),
+            &gt,
+            &mask,
+        )
+        .into_iter()
+        .map(|e| e.0),
+    );
+    let plain = mean(
+        errors(
+            &io::read_normals_npy(&plain.join("normals.npy")).unwrap(),
+            &gt,
+            &mask,
+        )
+        .into_iter()
+        .map(|e| e.0),
+    );
+    println!("Lambertian on the shiny target: robust {robust:.3}°, plain {plain:.3}°");
+    assert!(robust < 0.5 && plain > 2.0 && plain > 5.0 * robust);
+}
+
+#[test]
+fn lambertian_normals_and_albedo_of_a_matte_target() {
+    let data = tmp("matte");
+    synth(&data, "lambertian", 8, 48, None);
+    let out = data.join("out");
+    let (ok, _, err) = photostereo(&["normals", s(&data), "--lambertian", "-o", s(&out)]);
+    assert!(ok, "{err}");
+    let gt = io::read_normals_npy(&data.join("normal_gt.npy")).unwrap();
+    let mask = io::read_mask(&data.join("mask.png")).unwrap();
+    let est = io::read_normals_npy(&out.join("normals.npy")).unwrap();
+    let e = errors(&est, &gt, &mask);
+    let worst = e.iter().map(|e| e.0).fold(0.0, f64::max);
+    let albedo = io::read_gray_npy(&out.join("albedo.npy")).unwrap();
+    let albedo_gt = io::read_gray_npy(&data.join("albedo_gt.npy")).unwrap();
+    let albedo_err = e
+        .iter()
+        .map(|&(_, i)| (albedo.data[i] - albedo_gt.data[i]).abs())
+        .fold(0.0f32, f32::max);
+    println!("matte blob: worst normal error {worst:.4}°, worst albedo error {albedo_err:.2e}");
+    // a noise-free 16-bit Lambertian render: only quantisation remains
+    assert!(worst < 0.05, "worst error {worst}°");
+    assert!(albedo_err < 1e-3, "albedo error {albedo_err}");
+}
+
+/// Error, message containing every one of `needles`, and none of `absent` written.
+fn assert_refused(args: &[&str], needles: &[&str], absent: &[&Path]) {
+    let (ok, _, err) = photostereo(args);
+    assert!(!ok, "photostereo {} should fail", args.join(" "));
+    for n in needles {
+        assert!(err.contains(n), "message lacks `{n}`: {err}");
+    }
+    for p in absent {
+        assert!(!p.exists(), "{} written despite the error", p.display());
+    }
+}
+
+#[test]
+fn calibrate_refuses_no_sphere_a_circle_outside_and_two_lights() {
+    let root = tmp("calibrate-bad");
+    let lut = root.join("out/s.lut");
+    let overlay = root.join("out/overlay.png");
+
+    // black images: nothing to find
+    let black = root.join("black");
+    io::write_dataset(
+        &black,
+        &ImageStack::zeros(40, 30, 4),
+        &default_lights(4),
+        None,
+        8,
+    )
+    .unwrap();
+    assert_refused(
+        &["calibrate", s(&black), "-o", s(&lut)],
+        &[
+            "no sphere found",
+            "uniform",
+            "--circle cx,cy,r",
+            "--sphere-region",
+        ],
+        &[&lut, &overlay],
+    );
+
+    // a circle that leaves the 34x34 sphere image
+    let sphere = root.join("k4");
+    synth(&sphere, "plastic", 4, 32, Some(15.0));
+    let sphere = sphere.join("sphere");
+    assert_refused(
+        &[
+            "calibrate",
+            s(&sphere),
+            "--circle",
+            "30,17,15",
+            "-o",
+            s(&lut),
+        ],
+        &["--circle", "does not lie inside the 34x34 image", "cx,cy,r"],
+        &[&lut, &overlay],
+    );
+    // the same images with a circle inside do calibrate
+    let (ok, stdout, err) = photostereo(&[
+        "calibrate",
+        s(&sphere),
+        "--circle",
+        "17,17,15",
+        "-o",
+        s(&lut),
+    ]);
+    assert!(ok && stdout.contains("sphere circle (given)"), "{err}");
+    assert!(lut.is_file() && overlay.is_file());
+    std::fs::remove_dir_all(root.join("out")).unwrap();
+
+    // two lights: the sphere is found but no table can be built
+    let two = root.join("k2");
+    synth(&two, "plastic", 2, 32, Some(15.0));
+    assert_refused(
+        &["calibrate", s(&two.join("sphere")), "-o", s(&lut)],
+        &["expected 3 lights, found 2", "at least 3 images"],
+        &[&lut, &overlay],
+    );
+}
+
+#[test]
+fn normals_refuses_a_table_of_other_lights() {
+    let root = tmp("normals-bad");
+    let data = root.join("k6");
+    synth(&data, "plastic", 6, 32, Some(15.0));
+    let lut = root.join("s.lut");
+    let (ok, _, err) = photostereo(&["calibrate", s(&data.join("sphere")), "-o", s(&lut)]);
+    assert!(ok, "{err}");
+    let out = root.join("out");
+    let products = [
+        out.join("normals.npy"),
+        out.join("normals.png"),
+        out.join("confidence.npy"),
+    ];
+    let absent: Vec<&Path> = products.iter().map(PathBuf::as_path).collect();
+
+    // another number of lights
+    let k5 = root.join("k5");
+    synth(&k5, "plastic", 5, 32, None);
+    assert_refused(
+        &["normals", s(&k5), "--lut", s(&lut), "-o", s(&out)],
+        &[
+            s(&lut),
+            "the table has 6 lights, the target 5",
+            "same lights",
+        ],
+        &absent,
+    );
+
+    // the same K but other image names: other lights, or another order
+    let renamed = root.join("renamed");
+    synth(&renamed, "plastic", 6, 32, None);
+    let mut names = String::new();
+    for i in 1..=6 {
+        let (from, to) = (format!("{i:03}.png"), format!("img_{i:03}.png"));
+        std::fs::rename(renamed.join(&from), renamed.join(&to)).unwrap();
+        names += &format!("{to}\n");
+    }
+    std::fs::write(renamed.join("filenames.txt"), names).unwrap();
+    assert_refused(
+        &["normals", s(&renamed), "--lut", s(&lut), "-o", s(&out)],
+        &[
+            s(&lut),
+            "'001.png' in the table but 'img_001.png'",
+            "same order",
+        ],
+        &absent,
+    );
+
+    // two lights: refused by the Lambertian solver too
+    let k2 = root.join("k2");
+    synth(&k2, "lambertian", 2, 32, None);
+    assert_refused(
+        &["normals", s(&k2), "--lambertian", "-o", s(&out)],
+        &["expected 3 lights, found 2"],
+        &absent,
+    );
+    assert!(!out.exists(), "no output directory after errors");
+}
