@@ -19,7 +19,8 @@ photostereo normals data/target --lut sphere.lut --normalize -o out\n  \
 photostereo normals data/target --lambertian -o out\n\n\
 Writes normals.npy (float32 H×W×3), normals.png, confidence.npy (lookup: 1 = perfect match, \
 low where lights are shadowed or the match is poor), residual.npy, albedo.npy (--normalize or \
---lambertian) and weights_1.npy, weights_2.npy (two tables: the mix of each material).")]
+--lambertian) and weights_1.npy, weights_2.npy, weights_sigma.npy (two tables: the mix of \
+each material and its standard error; the confidence is low where the mix is undetermined).")]
 pub struct Args {
     /// Directory with the target's images (DiLiGenT layout).
     #[arg(value_name = "TARGET_DIR")]
@@ -143,6 +144,9 @@ fn lookup_normals(
             }
             grays.push((name, img));
         }
+    }
+    if let Some(sigma) = out.weight_sigma {
+        grays.push(("weights_sigma", sigma));
     }
     Ok(Results {
         normals: out.normals,

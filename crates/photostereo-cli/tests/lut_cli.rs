@@ -369,3 +369,122 @@ fn normals_refuses_a_table_of_other_lights() {
     );
     assert!(!out.exists(), "no output directory after errors");
 }
+
+/// Scale a stack by `e` (the exposure a camera would apply).
+fn exposed(stack: &ImageStack, e: f32) -> ImageStack {
+    let mut s = stack.clone();
+    s.data.iter_mut().for_each(|v| *v *= e);
+    s
+}
+
+#[test]
+fn two_tables_give_the_mix_of_two_materials() {
+    use photostereo::synth::{self, Material, SceneOptions, Shape, ShapeKind};
+    let root = tmp("mixture");
+    let size = 64;
+    let scene = |material| SceneOptions {
+        width: size,
+        height: size,
+        shape: Shape::preset(ShapeKind::Blob, size, size),
+        material,
+        lights: default_lights(12),
+        ..SceneOptions::default()
+    };
+    let (ma, mb) = (Material::lambertian(0.8), Material::metal());
+    let (sa, sb) = (
+        synth::render(&scene(ma)).unwrap(),
+        synth::render(&scene(mb)).unwrap(),
+    );
+    let spheres = [ma, mb].map(|m| synth::render_calibration_sphere(&scene(m), 40.0).unwrap());
+    // target = a·matte + b·metal, the weights varying along the columns
+    let weights = |i: usize| {
+        let u = (i % size) as f32 / (size - 1) as f32;
+        (1.0 - 0.5 * u, 0.1 + 0.3 * u)
+    };
+    let mut target = sa.stack.clone();
+    for i in 0..target.pixels() {
+        let (a, b) = weights(i);
+        for (t, v) in target
+            .pixel_flat_mut(i)
+            .iter_mut()
+            .zip(sb.stack.pixel_flat(i))
+        {
+            *t = a * *t + b * v;
+        }
+    }
+    // one exposure keeps every image below full scale; the intensities file undoes it
+    let peak = [&target, &spheres[0].stack, &spheres[1].stack]
+        .iter()
+        .flat_map(|s| s.data.iter().copied())
+        .fold(0.0f32, f32::max);
+    let e = 0.98 / peak;
+    let mut lights = sa.lights.clone();
+    lights.intensities = vec![e; lights.directions.len()];
+    io::write_dataset(
+        &root.join("target"),
+        &exposed(&target, e),
+        &lights,
+        Some(&sa.mask),
+        16,
+    )
+    .unwrap();
+    let luts = [root.join("matte.lut"), root.join("metal.lut")];
+    for ((sphere, name), lut) in spheres.iter().zip(["matte", "metal"]).zip(&luts) {
+        let dir = root.join(name);
+        io::write_dataset(&dir, &exposed(&sphere.stack, e), &lights, None, 16).unwrap();
+        let mut args = vec!["calibrate", s(&dir), "--material", name, "--rim", "1"];
+        // the dark metal sphere shows only its highlights: give its circle (84² image)
+        if name == "metal" {
+            args.extend(["--circle", "42,42,40"]);
+        }
+        args.extend(["-o", s(lut)]);
+        let (ok, _, err) = photostereo(&args);
+        assert!(ok, "{err}");
+    }
+    let out = root.join("out");
+    let target_dir = root.join("target");
+    let (ok, stdout, err) = photostereo(&[
+        "normals",
+        s(&target_dir),
+        "--lut",
+        s(&luts[0]),
+        "--lut",
+        s(&luts[1]),
+        "-o",
+        s(&out),
+    ]);
+    assert!(ok, "{err}");
+    assert!(stdout.contains("weights_2.npy: weight of") && stdout.contains("metal.lut"));
+    let normals = io::read_normals_npy(&out.join("normals.npy")).unwrap();
+    let err = errors(&normals, &sa.normals, &sa.mask);
+    let mean_err = mean(err.iter().map(|e| e.0));
+    let read = |f: &str| io::read_gray_npy(&out.join(f)).unwrap();
+    let (wa, wb) = (read("weights_1.npy"), read("weights_2.npy"));
+    let (sigma, conf) = (read("weights_sigma.npy"), read("confidence.npy"));
+    let (mut within, mut confident, mut confident_within, mut covered) = (0, 0, 0, 0);
+    for &(_, i) in &err {
+        let (a, b) = weights(i);
+        let e = (wa.data[i] - a).abs().max((wb.data[i] - b).abs());
+        within += (e <= 0.05) as usize;
+        covered += (e <= (3.0 * sigma.data[i]).max(0.01)) as usize;
+        if conf.data[i] >= 0.5 {
+            confident += 1;
+            confident_within += (e <= 0.05) as usize;
+        }
+    }
+    let n = err.len();
+    let pct = |x: usize, of: usize| 100.0 * x as f64 / of as f64;
+    println!(
+        "mixture through the CLI: normals {mean_err:.3}°; weights within 0.05: {:.2}% of {n} px, \
+         {:.2}% of the {:.1}% confident; error within 3σ_w: {:.2}%",
+        pct(within, n),
+        pct(confident_within, confident),
+        pct(confident, n),
+        pct(covered, n)
+    );
+    // a small 16-bit blob whose rim is beyond the tables' 1 px rim: the issue's figures
+    // are in the library test (lut_synth two_material_mixture); here the whole chain
+    assert!(mean_err < 0.5, "normals {mean_err}°");
+    assert!(pct(within, n) > 93.0 && pct(confident, n) > 85.0);
+    assert!(pct(confident_within, confident) >= 99.0);
+}

@@ -36,7 +36,15 @@
 //! **Several materials** (Hertzmann & Seitz): with two tables the model is
 //! t ≈ a·I_A(n) + b·I_B(n), a, b ≥ 0, found by a 2-variable non-negative least-squares
 //! fit for each candidate normal, searched exhaustively on a coarse grid of normals and
-//! refined as above; (a, b) are returned in [`Output::weights`].
+//! refined as above, with variable projection (the Jacobian's part that the weights
+//! absorb is projected out) and a fine pattern search against the bilinear creases;
+//! (a, b) are returned in [`Output::weights`]. A light counts as cast-shadowed below
+//! `shadow_level` × the pixel's brightest predicted sample. The weights' standard error
+//! σ_w = max(σ_a, σ_b) from the Gauss–Newton covariance σ²(JᵀJ)⁻¹ of (gx, gy, a, b),
+//! σ² = cost/(lights − 4), is returned in [`Output::weight_sigma`] and multiplies the
+//! confidence by 1 / (1 + (σ_w / `weight_scale`)²): the weights are unidentifiable
+//! where the materials trade off against the normal (grazing normals lit by few lights,
+//! no highlight) or where the normal lies beyond the table's rim.
 //!
 //! The table itself (building, file format) is in [`table`] and [`format`].
 
@@ -94,6 +102,9 @@ pub struct Options {
     pub max_iterations: usize,
     /// Relative RMS residual at which the confidence drops to 1/2. Default 0.05.
     pub residual_scale: f32,
+    /// Two tables: standard error of the mixture weights at which the confidence is
+    /// halved again (weights are fractions of each reference's brightness). Default 0.025.
+    pub weight_scale: f32,
 }
 
 impl Default for Options {
@@ -107,6 +118,7 @@ impl Default for Options {
             pca_dims: 6,
             max_iterations: 8,
             residual_scale: 0.05,
+            weight_scale: 0.025,
         }
     }
 }
@@ -124,6 +136,9 @@ pub struct Output {
     pub albedo: Option<GrayImage>,
     /// Mixture weights (a, b), one image per table (two tables only).
     pub weights: Option<Vec<GrayImage>>,
+    /// Standard error of the mixture weights, max(σ_a, σ_b) (two tables only; see the
+    /// module docs).
+    pub weight_sigma: Option<GrayImage>,
     /// Number of lights dropped as cast-shadowed at each pixel.
     pub shadowed_lights: Image<u16>,
     /// Number of lights above the dark level at each pixel.
@@ -251,6 +266,7 @@ fn assemble(out: Vec<PixelOut>, mask: &Mask, n_tables: usize, normalize: bool) -
         residual: img(&|p| p.residual),
         albedo: (normalize && n_tables == 1).then(|| img(&|p| p.coef[0])),
         weights: (n_tables == 2).then(|| vec![img(&|p| p.coef[0]), img(&|p| p.coef[1])]),
+        weight_sigma: (n_tables == 2).then(|| img(&|p| p.weight_sigma)),
         shadowed_lights: Image {
             width: w,
             height: h,

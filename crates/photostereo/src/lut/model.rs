@@ -22,6 +22,8 @@ use super::table::Table;
 
 /// Maximum Gauss–Newton step (pixels).
 const MAX_STEP: f64 = 1.5;
+/// Pattern-search + Gauss–Newton rounds that polish a mixture fit.
+const POLISH_ROUNDS: usize = 3;
 
 /// The reference tables and the kind of fit.
 pub(crate) struct Model<'a> {
@@ -163,9 +165,22 @@ impl<'a> Model<'a> {
         step: f64,
         s: &mut Scratch,
     ) -> Fit {
+        self.descend_to(t, w, start, step, 0.5, s)
+    }
+
+    /// [`Model::descend`] down to steps of `min_step` pixels.
+    fn descend_to(
+        &self,
+        t: &[f32],
+        w: Option<&[f32]>,
+        start: Fit,
+        step: f64,
+        min_step: f64,
+        s: &mut Scratch,
+    ) -> Fit {
         let mut best = start;
         let mut h = step;
-        while h >= 0.5 {
+        while h >= min_step {
             let mut moved = false;
             for (dx, dy) in NEIGHBOURS {
                 let f = self.eval(t, w, best.gx + dx * h, best.gy + dy * h, s);
@@ -230,6 +245,7 @@ impl<'a> Model<'a> {
                 *x += coef[1] * dx;
                 *y += coef[1] * dy;
             }
+            project_out(&s.basis, coef, w, jx, jy);
         }
         let (p, t, jx, jy) = (&s.pred[..k], &t[..k], &jx[..k], &jy[..k]);
         let (h11, h12, h22, g1, g2) = match w {
@@ -255,8 +271,34 @@ impl<'a> Model<'a> {
     }
 
     /// Gauss–Newton refinement of (gx, gy) from `start` (see the module docs); stops when
-    /// a step is below 0.01 px or after `iters` steps.
+    /// a step is below 0.01 px or after `iters` steps. For a mixture, the Gauss–Newton
+    /// solution is then polished: a pattern search down to 1/32 px and Gauss–Newton again
+    /// from any better point (up to [`POLISH_ROUNDS`] times), because the bilinear tables
+    /// crease the cost at cell edges and the two materials' trade-off valley is shallow.
     pub fn refine(
+        &self,
+        t: &[f32],
+        w: Option<&[f32]>,
+        start: Fit,
+        iters: usize,
+        s: &mut Scratch,
+    ) -> Fit {
+        let mut cur = self.gauss_newton(t, w, start, iters, s);
+        if !self.is_mix() {
+            return cur;
+        }
+        for _ in 0..POLISH_ROUNDS {
+            let f = self.descend_to(t, w, cur, 0.5, 1.0 / 32.0, s);
+            if f.cost >= cur.cost || f.cost.is_nan() {
+                break;
+            }
+            cur = self.gauss_newton(t, w, f, iters, s);
+        }
+        cur
+    }
+
+    /// The Gauss–Newton iterations of [`Model::refine`].
+    fn gauss_newton(
         &self,
         t: &[f32],
         w: Option<&[f32]>,
@@ -305,6 +347,54 @@ impl<'a> Model<'a> {
         cur
     }
 
+    /// Standard error of the mixture weights at a fit: max(σ_a, σ_b) from the
+    /// Gauss–Newton covariance σ²(JᵀJ)⁻¹ of the four parameters (gx, gy, a, b) over the
+    /// lights used (w_i > 0), J = [a·∂A/∂g + b·∂B/∂g, A, B], σ² = cost / (lights − 4).
+    /// Large where the two materials trade off against the normal (grazing normals lit by
+    /// few lights, no highlight) or the fit is poor; infinite with 4 lights or fewer.
+    pub fn weight_sigma(&self, t: &[f32], w: &[f32], fit: &Fit, s: &mut Scratch) -> f32 {
+        let k = self.k;
+        self.sample(fit.gx, fit.gy, s, true);
+        let (a, b) = (&s.basis[0], &s.basis[1]);
+        let (gax, gay) = s.grad[0].split_at(k);
+        let (gbx, gby) = s.grad[1].split_at(k);
+        let [ca, cb] = fit.coef;
+        let mut m = [[0.0f64; 4]; 4];
+        let (mut cost, mut used) = (0.0f64, 0usize);
+        for i in (0..k).filter(|&i| w[i] > 0.0) {
+            let col = [
+                (ca * gax[i] + cb * gbx[i]) as f64,
+                (ca * gay[i] + cb * gby[i]) as f64,
+                a[i] as f64,
+                b[i] as f64,
+            ];
+            for (r, row) in m.iter_mut().enumerate() {
+                for (c, v) in row.iter_mut().enumerate() {
+                    *v += col[r] * col[c];
+                }
+            }
+            cost += (t[i] as f64 - ca as f64 * col[2] - cb as f64 * col[3]).powi(2);
+            used += 1;
+        }
+        if used <= 4 {
+            return f32::INFINITY;
+        }
+        let var = cost / (used - 4) as f64;
+        let ia = inverse_entry(m, 2);
+        let ib = inverse_entry(m, 3);
+        match (ia, ib) {
+            (Some(ia), Some(ib)) => (var * ia.max(ib)).max(0.0).sqrt() as f32,
+            _ => f32::INFINITY,
+        }
+    }
+
+    /// Dark level of a mixture fit whose prediction is in `s.pred`: `shadow_level` times
+    /// the brightest predicted sample of this pixel. (The tables' peaks would make it
+    /// b × a specular peak, far above the grazing-lit samples a cast shadow hides.)
+    pub fn mix_dark_level(&self, shadow_level: f32, s: &Scratch) -> f32 {
+        shadow_level * s.pred[..self.k].iter().fold(0.0f32, |m, &v| m.max(v))
+    }
+
     /// Predicted tuple of a fit into `s.pred`.
     pub fn predict(&self, f: &Fit, s: &mut Scratch) {
         self.sample(f.gx, f.gy, s, false);
@@ -316,6 +406,70 @@ impl<'a> Model<'a> {
             s.pred[i] = p;
         }
     }
+}
+
+/// Variable projection for the mixture (Kaufman 1975): remove from the Jacobian columns
+/// `jx`, `jy` their (w-weighted) least-squares fit by the active basis tuples (those
+/// with a positive coefficient), J ← (I − B(BᵀWB)⁻¹BᵀW) J. What the coefficients can
+/// absorb by re-fitting is then no longer counted as curvature, so the Gauss–Newton
+/// step along the direction where the two materials trade off is not shortened.
+fn project_out(
+    basis: &[Vec<f32>; 2],
+    coef: [f32; 2],
+    w: Option<&[f32]>,
+    jx: &mut [f32],
+    jy: &mut [f32],
+) {
+    let (a, b) = (&basis[0][..jx.len()], &basis[1][..jx.len()]);
+    let aa = dotw(a, a, w) as f64;
+    let bb = dotw(b, b, w) as f64;
+    let ab = dotw(a, b, w) as f64;
+    let det = aa * bb - ab * ab;
+    let both = coef[0] > 0.0 && coef[1] > 0.0 && det > 1e-9 * aa * bb;
+    for j in [jx, jy] {
+        let (ja, jb) = (dotw(a, j, w) as f64, dotw(b, j, w) as f64);
+        let (ca, cb) = if both {
+            ((ja * bb - jb * ab) / det, (jb * aa - ja * ab) / det)
+        } else if coef[0] > 0.0 && aa > 0.0 {
+            (ja / aa, 0.0)
+        } else if coef[1] > 0.0 && bb > 0.0 {
+            (0.0, jb / bb)
+        } else {
+            (0.0, 0.0)
+        };
+        let (ca, cb) = (ca as f32, cb as f32);
+        for ((v, x), y) in j.iter_mut().zip(a).zip(b) {
+            *v -= ca * x + cb * y;
+        }
+    }
+}
+
+/// Diagonal entry j of M⁻¹ for a symmetric 4×4 M (Gauss–Jordan with partial pivoting on
+/// the system M x = e_j); None when M is singular.
+fn inverse_entry(mut m: [[f64; 4]; 4], j: usize) -> Option<f64> {
+    let scale = (0..4).map(|i| m[i][i].abs()).fold(0.0, f64::max);
+    let mut x = [0.0f64; 4];
+    x[j] = 1.0;
+    for c in 0..4 {
+        let p = (c..4).max_by(|&u, &v| m[u][c].abs().total_cmp(&m[v][c].abs()))?;
+        let pivot = m[p][c].abs();
+        if pivot <= 1e-12 * scale || pivot.is_nan() {
+            return None;
+        }
+        m.swap(c, p);
+        x.swap(c, p);
+        for r in 0..4 {
+            if r != c {
+                let f = m[r][c] / m[c][c];
+                let pivot_row = m[c];
+                for (v, p) in m[r].iter_mut().zip(pivot_row).skip(c) {
+                    *v -= f * p;
+                }
+                x[r] -= f * x[c];
+            }
+        }
+    }
+    Some(x[j] / m[j][j])
 }
 
 const NEIGHBOURS: [(f64, f64); 8] = [

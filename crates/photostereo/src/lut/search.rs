@@ -42,6 +42,8 @@ pub(crate) struct PixelOut {
     pub confidence: f32,
     pub residual: f32,
     pub coef: [f32; 2],
+    /// Standard error of the mixture weights (two tables only).
+    pub weight_sigma: f32,
     pub shadowed: u16,
     pub lit: u16,
 }
@@ -151,7 +153,11 @@ impl<'a> Solver<'a> {
         if self.opts.method == Method::Refined {
             for _round in 0..3 {
                 self.model.predict(&fit, s);
-                let level = self.level(&fit);
+                let level = if self.model.is_mix() {
+                    self.model.mix_dark_level(self.opts.shadow_level, s)
+                } else {
+                    self.level(&fit)
+                };
                 let mut new = false;
                 for i in 0..k {
                     if w[i] > 0.0 && t[i] < level && s.pred[i] > t[i] + level {
@@ -170,7 +176,14 @@ impl<'a> Solver<'a> {
             (Some(warm), 0) => (warm.gx, warm.gy) = (fit.gx, fit.gy),
             _ => s.warm = None,
         }
-        self.finish(t, w, fit, shadowed)
+        let mut out = self.finish(t, w, fit, shadowed);
+        if self.model.is_mix() {
+            let sigma = self.model.weight_sigma(t, w, &fit, s);
+            out.weight_sigma = sigma;
+            let factor = 1.0 / (1.0 + (sigma / self.opts.weight_scale).powi(2));
+            out.confidence *= if factor.is_finite() { factor } else { 0.0 };
+        }
+        out
     }
 
     /// Coherence shortcut: Gauss–Newton from the previous pixel's solution, accepted
@@ -368,6 +381,7 @@ impl<'a> Solver<'a> {
             confidence: if conf.is_finite() { conf } else { 0.0 },
             residual: rms_r,
             coef: fit.coef,
+            weight_sigma: 0.0,
             shadowed,
             lit: lit as u16,
         }
