@@ -19,8 +19,9 @@
 //!    similar), which makes it fast while keeping it exact.
 //! 2. **Beyond the pixel grid.** The cost ‖t − c·I(x, y)‖² is minimised over the
 //!    continuous sphere position (x, y) on the bilinear interpolation of the sphere
-//!    images by Gauss–Newton ([`model`]); the normal is the sphere's analytic normal at
-//!    that point: n = ((x − cx)/R, −(y − cy)/R, √(1 − n_x² − n_y²)).
+//!    images by Gauss–Newton ([`model`]; with one table, by a fused pass over the K
+//!    lights per step, [`single`]); the normal is the sphere's analytic normal at that
+//!    point: n = ((x − cx)/R, −(y − cy)/R, √(1 − n_x² − n_y²)).
 //! 3. **Albedo.** With `normalize`, c = ⟨t, I⟩/⟨I, I⟩ is fitted (equivalent to matching
 //!    t/‖t‖ against I/‖I‖); c, the albedo of the target relative to the sphere, is
 //!    returned in [`Output::albedo`]. Without it c = 1 (same albedo as the sphere).
@@ -52,6 +53,7 @@ pub mod format;
 pub mod index;
 mod model;
 mod search;
+mod single;
 pub mod table;
 
 pub use table::{BuildOptions, Entries, Table, Window};
@@ -59,9 +61,9 @@ pub use table::{BuildOptions, Entries, Table, Window};
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, ImageStack, Mask, NormalMap};
 use crate::progress::Progress;
-use model::{Model, Scratch};
+use model::Model;
 use rayon::prelude::*;
-use search::{PixelOut, Solver};
+use search::{PixelOut, Solver, Work};
 
 /// How a target tuple is turned into a normal.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -179,19 +181,16 @@ pub fn solve(
     let mut out = vec![PixelOut::default(); w * h];
     progress.start("lookup", h as u64);
     out.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
-        let mut s = Scratch::new(k);
-        let mut q = vec![0.0f32; k + 8];
-        let mut wt = vec![1.0f32; k];
-        let mut t = vec![0.0f32; k];
+        let mut wk = Work::new(k);
         for (c, px) in row.iter_mut().enumerate() {
             if !*mask.get(r, c) {
-                s.warm = None;
+                wk.s.warm = None;
                 continue;
             }
-            for (dst, &v) in t.iter_mut().zip(stack.pixel(r, c)) {
+            for (dst, &v) in wk.t.iter_mut().zip(stack.pixel(r, c)) {
                 *dst = if v.is_finite() { v } else { 0.0 };
             }
-            *px = solver.pixel(&t, &mut s, &mut q, &mut wt);
+            *px = solver.pixel(&mut wk);
         }
         progress.advance(1);
     });

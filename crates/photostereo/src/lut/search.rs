@@ -3,6 +3,7 @@
 
 use super::index::Index;
 use super::model::{Fit, Model, Scratch};
+use super::single::{self, Buf, Single};
 use super::{Method, Options};
 use crate::image::normalize;
 
@@ -25,13 +26,42 @@ pub(crate) struct Warm {
     pub since_tree: u32,
 }
 
-/// √cost / ‖t‖.
-fn relative(t: &[f32], cost: f32) -> f32 {
-    let norm = t.iter().map(|v| v * v).sum::<f32>().sqrt();
+/// √cost / ‖t‖ from a precomputed ‖t‖.
+fn relative_to(norm: f32, cost: f32) -> f32 {
     if norm > 0.0 {
         cost.max(0.0).sqrt() / norm
     } else {
         f32::INFINITY
+    }
+}
+
+/// Buffers of one worker: the target tuple and weights (padded to the fast path's lane
+/// width, zeros beyond K), the generic model's scratch and the fast path's buffers.
+pub(crate) struct Work {
+    /// Target tuple of the current pixel (first K values; the rest stay 0).
+    pub t: Vec<f32>,
+    w: Vec<f32>,
+    q: Vec<f32>,
+    pub s: Scratch,
+    b: Buf,
+    /// ‖t‖ of the current pixel.
+    norm: f32,
+    /// The fast path's buffer holds the current fit's tuple.
+    fresh: bool,
+}
+
+impl Work {
+    pub fn new(k: usize) -> Self {
+        let kp = single::padded(k);
+        Work {
+            t: vec![0.0; kp],
+            w: vec![0.0; kp],
+            q: vec![0.0; k + 8],
+            s: Scratch::new(k),
+            b: Buf::new(k),
+            norm: 0.0,
+            fresh: false,
+        }
     }
 }
 
@@ -54,6 +84,10 @@ pub(crate) struct Solver<'a> {
     pub opts: &'a Options,
     /// Index over table 0's entries (single table only).
     index: Option<Index>,
+    /// Fused refinement (single table only).
+    single: Option<Single>,
+    /// Weights 1 for the K lights, 0 for the padding.
+    ones: Vec<f32>,
     /// Coarse grid: positions and the tables' tuples there.
     coarse_pos: Vec<(f64, f64)>,
     coarse_basis: [Vec<f32>; 2],
@@ -102,10 +136,15 @@ impl<'a> Solver<'a> {
             }
         }
         let peaks = [t0.peak(), model.tables.get(1).map_or(0.0, |t| t.peak())];
+        let single = (!model.is_mix()).then(|| Single::new(t0, opts.normalize));
+        let mut ones = vec![0.0; single::padded(k)];
+        ones[..k].fill(1.0);
         Solver {
             model,
             opts,
             index,
+            single,
+            ones,
             coarse_pos,
             coarse_basis,
             coarse_step,
@@ -123,21 +162,23 @@ impl<'a> Solver<'a> {
         )
     }
 
-    /// Solve one pixel with samples `t`; `s.seeds` holds the previous pixel's candidates.
-    /// `q` needs K + 8 values and `w` K values of scratch space.
-    pub fn pixel(&self, t: &[f32], s: &mut Scratch, q: &mut [f32], w: &mut [f32]) -> PixelOut {
+    /// Solve the pixel whose samples are in `wk.t`; `wk.s.seeds` holds the previous
+    /// pixel's candidates and `wk.s.warm` its solution.
+    pub fn pixel(&self, wk: &mut Work) -> PixelOut {
         let k = self.model.k;
+        wk.norm = wk.t[..k].iter().map(|v| v * v).sum::<f32>().sqrt();
+        wk.fresh = false;
         let mut fit = match (&self.index, self.opts.method) {
             (Some(index), Method::InverseDistance { neighbours }) => {
-                return self.inverse_distance(t, index, neighbours, q, s);
+                return self.inverse_distance(index, neighbours, wk);
             }
-            (Some(index), Method::Refined) => match self.warm_start(t, s) {
+            (Some(index), Method::Refined) => match self.warm_start(wk) {
                 Some(fit) => fit,
                 None => {
-                    let fit = self.tree_match(t, index, q, s);
-                    let fit = self.model.refine(t, None, fit, self.opts.max_iterations, s);
-                    s.rel_ref = relative(t, fit.cost);
-                    s.warm = Some(Warm {
+                    let fit = self.tree_match(index, wk);
+                    let fit = self.refine(false, fit, wk);
+                    wk.s.rel_ref = relative_to(wk.norm, fit.cost);
+                    wk.s.warm = Some(Warm {
                         gx: fit.gx,
                         gy: fit.gy,
                         since_tree: 0,
@@ -145,22 +186,23 @@ impl<'a> Solver<'a> {
                     fit
                 }
             },
-            (Some(index), _) => self.tree_match(t, index, q, s),
-            (None, _) => self.exhaustive(t, None, s),
+            (Some(index), _) => self.tree_match(index, wk),
+            (None, _) => self.exhaustive(false, wk),
         };
-        w.fill(1.0);
+        wk.w[..k].fill(1.0);
         let mut shadowed = 0u16;
         if self.opts.method == Method::Refined {
             for _round in 0..3 {
-                self.model.predict(&fit, s);
+                self.predict(&fit, wk);
                 let level = if self.model.is_mix() {
-                    self.model.mix_dark_level(self.opts.shadow_level, s)
+                    self.model.mix_dark_level(self.opts.shadow_level, &wk.s)
                 } else {
                     self.level(&fit)
                 };
                 let mut new = false;
+                let (t, w, pred) = (&wk.t[..k], &mut wk.w[..k], &wk.s.pred[..k]);
                 for i in 0..k {
-                    if w[i] > 0.0 && t[i] < level && s.pred[i] > t[i] + level {
+                    if w[i] > 0.0 && t[i] < level && pred[i] > t[i] + level {
                         w[i] = 0.0;
                         shadowed += 1;
                         new = true;
@@ -169,16 +211,18 @@ impl<'a> Solver<'a> {
                 if !new || (k as u16 - shadowed) < 2 {
                     break;
                 }
-                fit = self.masked_search(t, w, fit, s);
+                fit = self.masked_search(fit, wk);
             }
         }
-        match (&mut s.warm, shadowed) {
+        match (&mut wk.s.warm, shadowed) {
             (Some(warm), 0) => (warm.gx, warm.gy) = (fit.gx, fit.gy),
-            _ => s.warm = None,
+            _ => wk.s.warm = None,
         }
-        let mut out = self.finish(t, w, fit, shadowed);
+        let mut out = self.finish(&wk.t[..k], &wk.w[..k], fit, shadowed);
         if self.model.is_mix() {
-            let sigma = self.model.weight_sigma(t, w, &fit, s);
+            let sigma = self
+                .model
+                .weight_sigma(&wk.t[..k], &wk.w[..k], &fit, &mut wk.s);
             out.weight_sigma = sigma;
             let factor = 1.0 / (1.0 + (sigma / self.opts.weight_scale).powi(2));
             out.confidence *= if factor.is_finite() { factor } else { 0.0 };
@@ -186,11 +230,42 @@ impl<'a> Solver<'a> {
         out
     }
 
+    /// The model tuple of `fit` into `wk.s.pred` (from the fast path's buffer when it
+    /// holds that fit).
+    fn predict(&self, fit: &Fit, wk: &mut Work) {
+        match (&self.single, wk.fresh) {
+            (Some(single), true) => single.prediction(fit.coef[0], &wk.b, &mut wk.s.pred),
+            _ => self.model.predict(fit, &mut wk.s),
+        }
+    }
+
+    /// Gauss–Newton refinement from `start` with the weights in `wk.w` (`weighted`) or
+    /// all lights, by the
+    /// fused single-table path when there is one table; returns `start` when its cost is
+    /// lower than that of the refinement.
+    fn refine(&self, weighted: bool, start: Fit, wk: &mut Work) -> Fit {
+        let k = self.model.k;
+        let iters = self.opts.max_iterations;
+        let Some(single) = &self.single else {
+            wk.fresh = false;
+            let w = weighted.then_some(&wk.w[..k]);
+            return self.model.refine(&wk.t[..k], w, start, iters, &mut wk.s);
+        };
+        let weights = if weighted { &wk.w[..] } else { &self.ones[..] };
+        let (p, fresh) = single.refine(&wk.t, weights, start.gx, start.gy, iters, &mut wk.b);
+        if p.cost > start.cost {
+            wk.fresh = false;
+            return start;
+        }
+        wk.fresh = fresh;
+        p.fit()
+    }
+
     /// Coherence shortcut: Gauss–Newton from the previous pixel's solution, accepted
     /// when its relative residual is at most 1.5 × that of the last pixel matched through
     /// the tree (or 0.3%), and at most 16 pixels after that tree search.
-    fn warm_start(&self, t: &[f32], s: &mut Scratch) -> Option<Fit> {
-        let warm = s.warm?;
+    fn warm_start(&self, wk: &mut Work) -> Option<Fit> {
+        let warm = wk.s.warm?;
         if warm.since_tree >= WARM_RUN {
             return None;
         }
@@ -200,11 +275,9 @@ impl<'a> Solver<'a> {
             coef: [1.0, 0.0],
             cost: f32::INFINITY,
         };
-        let fit = self
-            .model
-            .refine(t, None, start, self.opts.max_iterations, s);
-        if relative(t, fit.cost) <= (1.5 * s.rel_ref).max(WARM_FLOOR) {
-            if let Some(w) = s.warm.as_mut() {
+        let fit = self.refine(false, start, wk);
+        if relative_to(wk.norm, fit.cost) <= (1.5 * wk.s.rel_ref).max(WARM_FLOOR) {
+            if let Some(w) = wk.s.warm.as_mut() {
                 w.since_tree += 1;
             }
             Some(fit)
@@ -220,12 +293,13 @@ impl<'a> Solver<'a> {
     }
 
     /// Nearest entries in the index, re-ranked on the full K-dimensional cost.
-    fn tree_match(&self, t: &[f32], index: &Index, q: &mut [f32], s: &mut Scratch) -> Fit {
+    fn tree_match(&self, index: &Index, wk: &mut Work) -> Fit {
         let k = self.model.k;
-        let query = self.query(t, index, q);
-        let cands = index.nearest(query, self.opts.candidates, &s.seeds);
-        s.seeds.clear();
-        s.seeds.extend_from_slice(&cands.ids[..cands.len]);
+        let t = &wk.t[..k];
+        let query = self.query(t, index, &mut wk.q);
+        let cands = index.nearest(query, self.opts.candidates, &wk.s.seeds);
+        wk.s.seeds.clear();
+        wk.s.seeds.extend_from_slice(&cands.ids[..cands.len]);
         let mut best = (f32::INFINITY, [1.0, 0.0], u32::MAX);
         for &e in &cands.ids[..cands.len] {
             let tuple = &self.model.tables[0].entries.tuples[e as usize * k..(e as usize + 1) * k];
@@ -260,36 +334,42 @@ impl<'a> Solver<'a> {
         qd
     }
 
-    /// Search with some lights dropped (weights `w`): first locally from `from` (pattern
-    /// descent from 4 px, Gauss–Newton), accepted when its relative residual passes the
-    /// coherence test; otherwise the exhaustive search, keeping the better of the two.
-    fn masked_search(&self, t: &[f32], w: &[f32], from: Fit, s: &mut Scratch) -> Fit {
-        let start = self.model.eval(t, Some(w), from.gx, from.gy, s);
-        let local = self.model.descend(t, Some(w), start, 4.0, s);
-        let local = self
-            .model
-            .refine(t, Some(w), local, self.opts.max_iterations, s);
+    /// Search with the lights of weight 0 in `wk.w` dropped: first locally from `from`
+    /// (pattern descent from 4 px, Gauss–Newton), accepted when its relative residual
+    /// passes the coherence test; otherwise the exhaustive search, keeping the better of
+    /// the two.
+    fn masked_search(&self, from: Fit, wk: &mut Work) -> Fit {
+        let k = self.model.k;
+        let (t, w) = (&wk.t[..k], &wk.w[..k]);
+        let start = self.model.eval(t, Some(w), from.gx, from.gy, &mut wk.s);
+        let local = self.model.descend(t, Some(w), start, 4.0, &mut wk.s);
         let energy: f32 = t.iter().zip(w).map(|(t, w)| w * t * t).sum();
+        let local = self.refine(true, local, wk);
         let rel = if energy > 0.0 {
             (local.cost.max(0.0) / energy).sqrt()
         } else {
             f32::INFINITY
         };
-        if !self.model.is_mix() && rel <= (1.5 * s.rel_ref).max(WARM_FLOOR) {
+        if !self.model.is_mix() && rel <= (1.5 * wk.s.rel_ref).max(WARM_FLOOR) {
             return local;
         }
-        let global = self.exhaustive(t, Some(w), s);
+        let global = self.exhaustive(true, wk);
         if global.cost < local.cost {
             global
         } else {
+            wk.fresh = false;
             local
         }
     }
 
-    /// Exhaustive search on the coarse grid with weights `w`, then pattern descent from
-    /// the best few and Gauss–Newton from the best of those.
-    fn exhaustive(&self, t: &[f32], w: Option<&[f32]>, s: &mut Scratch) -> Fit {
+    /// Exhaustive search on the coarse grid with the weights in `wk.w` (`weighted`) or
+    /// all lights, then pattern descent from the best few and Gauss–Newton from the best of
+    /// those.
+    fn exhaustive(&self, weighted: bool, wk: &mut Work) -> Fit {
         let k = self.model.k;
+        let t = &wk.t[..k];
+        let w = weighted.then_some(&wk.w[..k]);
+        let s = &mut wk.s;
         let mut keep: [(f32, usize); COARSE_KEEP] = [(f32::INFINITY, 0); COARSE_KEEP];
         for (j, _) in self.coarse_pos.iter().enumerate() {
             let a = &self.coarse_basis[0][j * k..(j + 1) * k];
@@ -305,8 +385,7 @@ impl<'a> Solver<'a> {
             }
         }
         let mut best: Option<Fit> = None;
-        for &(cost, j) in keep.iter().filter(|c| c.0.is_finite()) {
-            let _ = cost;
+        for &(_, j) in keep.iter().filter(|c| c.0.is_finite()) {
             let (gx, gy) = self.coarse_pos[j];
             let start = self.model.eval(t, w, gx, gy, s);
             let f = self.model.descend(t, w, start, self.coarse_step / 2.0, s);
@@ -318,19 +397,14 @@ impl<'a> Solver<'a> {
             let (gx, gy) = self.coarse_pos[0];
             self.model.eval(t, w, gx, gy, s)
         });
-        self.model.refine(t, w, start, self.opts.max_iterations, s)
+        self.refine(weighted, start, wk)
     }
 
     /// The baseline: normals of the m nearest entries averaged with weights 1/distance.
-    fn inverse_distance(
-        &self,
-        t: &[f32],
-        index: &Index,
-        m: usize,
-        q: &mut [f32],
-        s: &mut Scratch,
-    ) -> PixelOut {
-        let query = self.query(t, index, q);
+    fn inverse_distance(&self, index: &Index, m: usize, wk: &mut Work) -> PixelOut {
+        let k = self.model.k;
+        let (t, s) = (&wk.t[..k], &mut wk.s);
+        let query = self.query(t, index, &mut wk.q);
         let cands = index.nearest(query, m, &s.seeds);
         s.seeds.clear();
         s.seeds.extend_from_slice(&cands.ids[..cands.len]);
@@ -348,8 +422,7 @@ impl<'a> Solver<'a> {
         let e = cands.ids[0];
         let (gx, gy) = self.entry_grid(e);
         let fit = self.model.eval(t, None, gx, gy, s);
-        let ones = vec![1.0; t.len()];
-        let mut out = self.finish(t, &ones, fit, 0);
+        let mut out = self.finish(t, &self.ones[..k], fit, 0);
         out.normal = normalize(acc);
         out
     }

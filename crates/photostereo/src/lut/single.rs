@@ -1,0 +1,371 @@
+//! Fast path of the sub-pixel refinement for one table.
+//!
+//! It minimises the same cost as [`super::model::Model::refine`] (weighted
+//! ‖t − c·I(gx, gy)‖² over the continuous sphere position, Gauss–Newton with variable
+//! projection, Levenberg damping 10⁻⁶·tr H, steps of at most 1.5 px, up to 4 halvings),
+//! but fuses the bilinear interpolation of I and of its gradient, the coefficient fit, the
+//! cost and the normal equations into one pass over the K lights, on a copy of the
+//! sphere window whose tuples are padded with zeros to a multiple of [`LANES`] so that
+//! the pass runs on fixed-width lanes (vectorised by the compiler). Target tuples and
+//! weights are padded the same way (weight 0 beyond K).
+//!
+//! Stopping rule: the iteration ends when the Gauss–Newton step is below 0.01 px (the
+//! step is then not taken: the position is within about that of the minimum).
+
+use super::model::Fit;
+use super::table::Table;
+
+/// Lane width of the fused pass (lights per block).
+pub(crate) const LANES: usize = 4;
+/// Maximum Gauss–Newton step (pixels), as in the generic refinement.
+const MAX_STEP: f64 = 1.5;
+/// Squared step length (px²) below which the iteration stops.
+const STOP2: f64 = 1e-4;
+
+/// Round `k` up to a multiple of [`LANES`].
+pub(crate) fn padded(k: usize) -> usize {
+    k.div_ceil(LANES) * LANES
+}
+
+/// The table's window, padded per pixel to a multiple of [`LANES`] lights.
+pub(crate) struct Single {
+    data: Vec<f32>,
+    kp: usize,
+    width: usize,
+    height: usize,
+    /// Grid position of the circle centre.
+    centre: (f64, f64),
+    /// Search radius (grid pixels).
+    rmax: f64,
+    /// Fit a free scale c (normalised matching); else c = 1.
+    scale: bool,
+}
+
+/// Result of one fused evaluation: position, coefficient, cost and normal equations
+/// (H = JᵀWJ as h11, h12, h22; g = JᵀWr).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Point {
+    pub gx: f64,
+    pub gy: f64,
+    pub c: f32,
+    pub cost: f32,
+    h: [f64; 3],
+    g: [f64; 2],
+}
+
+impl Point {
+    /// As a [`Fit`] of the generic model (one table: the second coefficient is 0).
+    pub fn fit(&self) -> Fit {
+        Fit {
+            gx: self.gx,
+            gy: self.gy,
+            coef: [self.c, 0.0],
+            cost: self.cost,
+        }
+    }
+}
+
+/// Per-worker buffers of the fused pass (interpolated tuple and gradients).
+pub(crate) struct Buf {
+    v: Vec<f32>,
+    dx: Vec<f32>,
+    dy: Vec<f32>,
+}
+
+impl Buf {
+    pub fn new(k: usize) -> Self {
+        let kp = padded(k);
+        Buf {
+            v: vec![0.0; kp],
+            dx: vec![0.0; kp],
+            dy: vec![0.0; kp],
+        }
+    }
+}
+
+/// Four-lane f32 vectors: SSE2 on x86-64 (always available there), plain arrays
+/// elsewhere.
+mod lanes {
+    #[cfg(target_arch = "x86_64")]
+    use std::arch::x86_64::*;
+
+    /// Four f32 lanes.
+    #[cfg(target_arch = "x86_64")]
+    #[derive(Clone, Copy)]
+    pub struct V(__m128);
+    /// Four f32 lanes.
+    #[cfg(not(target_arch = "x86_64"))]
+    #[derive(Clone, Copy)]
+    pub struct V([f32; 4]);
+
+    // SAFETY (all `unsafe` blocks of this impl): SSE and SSE2 are part of the x86-64
+    // baseline, so the intrinsics are always available; loads and stores go through
+    // slices of exactly 4 values.
+    #[cfg(target_arch = "x86_64")]
+    impl V {
+        #[inline(always)]
+        pub fn zero() -> V {
+            V(unsafe { _mm_setzero_ps() })
+        }
+        #[inline(always)]
+        pub fn splat(x: f32) -> V {
+            V(unsafe { _mm_set1_ps(x) })
+        }
+        /// The 4 values at `s[at..at + 4]`.
+        #[inline(always)]
+        pub fn load(s: &[f32], at: usize) -> V {
+            let s = &s[at..at + 4];
+            V(unsafe { _mm_loadu_ps(s.as_ptr()) })
+        }
+        #[inline(always)]
+        pub fn store(self, s: &mut [f32], at: usize) {
+            let s = &mut s[at..at + 4];
+            unsafe { _mm_storeu_ps(s.as_mut_ptr(), self.0) }
+        }
+        #[inline(always)]
+        pub fn add(self, o: V) -> V {
+            V(unsafe { _mm_add_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        pub fn sub(self, o: V) -> V {
+            V(unsafe { _mm_sub_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        pub fn mul(self, o: V) -> V {
+            V(unsafe { _mm_mul_ps(self.0, o.0) })
+        }
+        /// Sum of the lanes.
+        #[inline(always)]
+        pub fn sum(self) -> f32 {
+            unsafe {
+                let hi = _mm_movehl_ps(self.0, self.0);
+                let s2 = _mm_add_ps(self.0, hi);
+                let s1 = _mm_add_ss(s2, _mm_shuffle_ps::<1>(s2, s2));
+                _mm_cvtss_f32(s1)
+            }
+        }
+    }
+
+    #[cfg(not(target_arch = "x86_64"))]
+    impl V {
+        #[inline(always)]
+        pub fn zero() -> V {
+            V([0.0; 4])
+        }
+        #[inline(always)]
+        pub fn splat(x: f32) -> V {
+            V([x; 4])
+        }
+        /// The 4 values at `s[at..at + 4]`.
+        #[inline(always)]
+        pub fn load(s: &[f32], at: usize) -> V {
+            V(s[at..at + 4].try_into().expect("4 lanes"))
+        }
+        #[inline(always)]
+        pub fn store(self, s: &mut [f32], at: usize) {
+            s[at..at + 4].copy_from_slice(&self.0);
+        }
+        #[inline(always)]
+        pub fn add(self, o: V) -> V {
+            V(std::array::from_fn(|i| self.0[i] + o.0[i]))
+        }
+        #[inline(always)]
+        pub fn sub(self, o: V) -> V {
+            V(std::array::from_fn(|i| self.0[i] - o.0[i]))
+        }
+        #[inline(always)]
+        pub fn mul(self, o: V) -> V {
+            V(std::array::from_fn(|i| self.0[i] * o.0[i]))
+        }
+        /// Sum of the lanes.
+        #[inline(always)]
+        pub fn sum(self) -> f32 {
+            (self.0[0] + self.0[2]) + (self.0[1] + self.0[3])
+        }
+    }
+}
+
+use lanes::V;
+
+impl Single {
+    /// Copy `table`'s window with padded tuples.
+    pub fn new(table: &Table, scale: bool) -> Self {
+        let ws = &table.window.stack;
+        let (k, kp) = (ws.k, padded(ws.k));
+        let mut data = vec![0.0f32; ws.width * ws.height * kp];
+        for (dst, src) in data.chunks_exact_mut(kp).zip(ws.data.chunks_exact(k)) {
+            dst[..k].copy_from_slice(src);
+        }
+        Single {
+            data,
+            kp,
+            width: ws.width,
+            height: ws.height,
+            centre: table.to_grid(table.circle.cx, table.circle.cy),
+            rmax: table.search_radius(),
+            scale,
+        }
+    }
+
+    /// (gx, gy) moved back inside the search disc (as [`Table::clamp_grid`]).
+    #[inline]
+    fn clamp(&self, gx: f64, gy: f64) -> (f64, f64) {
+        let (dx, dy) = (gx - self.centre.0, gy - self.centre.1);
+        let d2 = dx * dx + dy * dy;
+        if d2 > self.rmax * self.rmax {
+            let f = self.rmax / d2.sqrt();
+            (self.centre.0 + dx * f, self.centre.1 + dy * f)
+        } else {
+            (gx, gy)
+        }
+    }
+
+    /// Cost and normal equations at (gx, gy) (clamped to the search disc) for the target
+    /// `t` with weights `w` (both padded); `b` keeps the interpolated tuple.
+    #[inline]
+    pub fn eval(&self, t: &[f32], w: &[f32], gx: f64, gy: f64, b: &mut Buf) -> Point {
+        let (gx, gy) = self.clamp(gx, gy);
+        if self.scale {
+            self.eval_with::<true>(t, w, gx, gy, b)
+        } else {
+            self.eval_with::<false>(t, w, gx, gy, b)
+        }
+    }
+
+    /// [`Single::eval`] at a clamped position. Without a scale (c = 1) everything is
+    /// accumulated in one pass; with one, a first pass interpolates and fits c, a second
+    /// accumulates the residual terms.
+    #[inline(always)]
+    fn eval_with<const SCALE: bool>(
+        &self,
+        t: &[f32],
+        w: &[f32],
+        gx: f64,
+        gy: f64,
+        b: &mut Buf,
+    ) -> Point {
+        let kp = self.kp;
+        // positions are ≥ 0 inside the window; `as` saturates (floor for x ≥ 0)
+        let c0 = (gx.max(0.0) as usize).min(self.width - 2);
+        let r0 = (gy.max(0.0) as usize).min(self.height - 2);
+        let (a, bb) = (V::splat((gx - c0 as f64) as f32), (gy - r0 as f64) as f32);
+        let bv = V::splat(bb);
+        let top = (r0 * self.width + c0) * kp;
+        let bot = self.width * kp;
+        let d = &self.data[top..top + bot + 2 * kp];
+        let (t, w) = (&t[..kp], &w[..kp]);
+        let z = V::zero();
+        let (mut ti, mut ii, mut h11, mut h12, mut h22) = (z, z, z, z, z);
+        let (mut cost, mut g1, mut g2) = (z, z, z);
+        for o in (0..kp).step_by(LANES) {
+            let (x00, x01) = (V::load(d, o), V::load(d, kp + o));
+            let (x10, x11) = (V::load(d, bot + o), V::load(d, bot + kp + o));
+            let (tl, wl) = (V::load(t, o), V::load(w, o));
+            let (e0, e1) = (x01.sub(x00), x11.sub(x10));
+            let up = x00.add(e0.mul(a));
+            let dy = x10.add(e1.mul(a)).sub(up);
+            let v = up.add(dy.mul(bv));
+            let dx = e0.add(e1.sub(e0).mul(bv));
+            v.store(&mut b.v, o);
+            let (wdx, wdy) = (wl.mul(dx), wl.mul(dy));
+            h11 = h11.add(wdx.mul(dx));
+            h12 = h12.add(wdx.mul(dy));
+            h22 = h22.add(wdy.mul(dy));
+            if SCALE {
+                dx.store(&mut b.dx, o);
+                dy.store(&mut b.dy, o);
+                let wv = wl.mul(v);
+                ti = ti.add(wv.mul(tl));
+                ii = ii.add(wv.mul(v));
+            } else {
+                let wr = wl.mul(tl.sub(v));
+                cost = cost.add(wr.mul(tl.sub(v)));
+                g1 = g1.add(wr.mul(dx));
+                g2 = g2.add(wr.mul(dy));
+            }
+        }
+        let mut c = 1.0f32;
+        if SCALE {
+            let (ti, ii) = (ti.sum(), ii.sum());
+            c = if ii > 0.0 { (ti / ii).max(0.0) } else { 0.0 };
+            let cv = V::splat(c);
+            for o in (0..kp).step_by(LANES) {
+                let (tl, wl) = (V::load(t, o), V::load(w, o));
+                let r = tl.sub(V::load(&b.v, o).mul(cv));
+                let wr = wl.mul(r);
+                cost = cost.add(wr.mul(r));
+                g1 = g1.add(wr.mul(V::load(&b.dx, o)));
+                g2 = g2.add(wr.mul(V::load(&b.dy, o)));
+            }
+        }
+        let (c64, c2) = (c as f64, (c * c) as f64);
+        let sum = |x: V| x.sum() as f64;
+        Point {
+            gx,
+            gy,
+            c,
+            cost: cost.sum(),
+            h: [c2 * sum(h11), c2 * sum(h12), c2 * sum(h22)],
+            g: [c64 * sum(g1), c64 * sum(g2)],
+        }
+    }
+
+    /// The model tuple c·I of the last evaluation into `out` (K values).
+    pub fn prediction(&self, c: f32, b: &Buf, out: &mut [f32]) {
+        for (o, v) in out.iter_mut().zip(&b.v) {
+            *o = c * v;
+        }
+    }
+
+    /// Gauss–Newton from (gx, gy) (see the module docs). The result's tuple is left in
+    /// `b` only when `b_holds` of the returned pair is true.
+    pub fn refine(
+        &self,
+        t: &[f32],
+        w: &[f32],
+        gx: f64,
+        gy: f64,
+        iters: usize,
+        b: &mut Buf,
+    ) -> (Point, bool) {
+        let mut cur = self.eval(t, w, gx, gy, b);
+        let mut fresh = true;
+        for _ in 0..iters {
+            let [h11, h12, h22] = cur.h;
+            let damp = 1e-6 * (h11 + h22) + 1e-12;
+            let (a, bb, d) = (h11 + damp, h12, h22 + damp);
+            let det = a * d - bb * bb;
+            if det.is_nan() || det <= 0.0 {
+                break;
+            }
+            let mut dx = (d * cur.g[0] - bb * cur.g[1]) / det;
+            let mut dy = (a * cur.g[1] - bb * cur.g[0]) / det;
+            let len2 = dx * dx + dy * dy;
+            if len2 < STOP2 {
+                break;
+            }
+            if len2 > MAX_STEP * MAX_STEP {
+                let f = MAX_STEP / len2.sqrt();
+                dx *= f;
+                dy *= f;
+            }
+            let mut accepted = false;
+            for _ in 0..4 {
+                let f = self.eval(t, w, cur.gx + dx, cur.gy + dy, b);
+                fresh = false;
+                if f.cost <= cur.cost {
+                    cur = f;
+                    fresh = true;
+                    accepted = true;
+                    break;
+                }
+                dx *= 0.5;
+                dy *= 0.5;
+            }
+            if !accepted || dx * dx + dy * dy < STOP2 {
+                break;
+            }
+        }
+        (cur, fresh)
+    }
+}
