@@ -15,8 +15,9 @@ use std::path::{Path, PathBuf};
 photostereo lights data/chrome --chrome -o data/chrome/light_directions.txt\n  \
 photostereo lights data/matte_ball --matte --circle 256.5,170,120 -o lights.txt\n\n\
 SPHERE_DIR holds the K sphere images (DiLiGenT layout: filenames.txt or 001.png, 002.png, ...). \
-The sphere is found in the maximum of the images; where its rim does not show (a chrome \
-sphere on a dark background) the outline of the mask (SPHERE_DIR/mask.png or --mask) is used. \
+The sphere is found in the maximum of the images or, for a dark chrome sphere, from the edges \
+where its rim contrasts with what lies behind it; where the rim does not show at all the outline \
+of the mask (SPHERE_DIR/mask.png or --mask) is used. \
 overlay.png (the circle on the maximum image) is written beside the output: check it.")]
 pub struct Args {
     /// Directory with the sphere's images.

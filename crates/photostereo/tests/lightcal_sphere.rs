@@ -192,4 +192,22 @@ fn real_chrome_sphere_against_published_lights() {
     let mean = e.iter().sum::<f64>() / e.len() as f64;
     summary("real chrome vs published", &e);
     assert!(mean < 10.0, "mean angle to the published lights {mean:.2}°");
+    // the same with the circle detected in the images (contrast edges of the rim)
+    let found = detect(&stack, &DetectOptions::default()).unwrap().circle;
+    let (from_images, _) = from_chrome_sphere(&stack, &found, &ChromeOptions::default()).unwrap();
+    let e2 = errors(&from_images.directions, &published);
+    let per_light: Vec<String> = e2.iter().map(|a| format!("{a:.2}")).collect();
+    println!(
+        "circle from the images: cx {:.2}, cy {:.2}, r {:.2}; per light {}",
+        found.cx,
+        found.cy,
+        found.radius,
+        per_light.join(" ")
+    );
+    summary("real chrome vs published, circle from the images", &e2);
+    let mean2 = e2.iter().sum::<f64>() / e2.len() as f64;
+    assert!(
+        mean2 < 10.0,
+        "mean angle to the published lights {mean2:.2}°"
+    );
 }

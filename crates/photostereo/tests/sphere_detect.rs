@@ -242,41 +242,33 @@ fn overlay_marks_the_circle() {
     assert_eq!(*o.get(r, c), [0, 255, 0]);
 }
 
-/// The real chrome sphere (psmImages): a mirror sphere on a dark background, whose
-/// rim shows only against the lit wall behind its upper half. Image-only detection
-/// is reported (it is expected to fail: the brightest blob is the highlight cluster);
-/// the circle then comes from the dataset's silhouette mask (`mask_outline`), the
-/// overlay is written for a person to check, and the outline must be a clean circle.
-/// Skips when `../shared` is absent.
-#[test]
-fn real_chrome_sphere() {
-    let Some(shared) = sphere_support::shared_dir() else {
-        println!("skipped: ../shared not found");
-        return;
-    };
-    let dir = shared.join("data/real/chrome");
-    let stack = sphere_support::load_png_dir(&dir);
-    match detect(&stack, &DetectOptions::default()) {
-        Ok(d) => println!(
-            "real chrome, from the images: {:?}, rms {:.3} px",
-            d.circle, d.rms_residual_px
-        ),
-        Err(e) => println!("real chrome, from the images: {e}"),
+/// Mask boundary points: midpoints between each inside pixel centre and its outside
+/// 4-neighbours' centres.
+fn mask_outline_points(mask: &photostereo::Mask) -> Vec<[f64; 2]> {
+    let (w, h) = (mask.width, mask.height);
+    let mut pts = Vec::new();
+    for r in 1..h - 1 {
+        for c in 1..w - 1 {
+            if !*mask.get(r, c) {
+                continue;
+            }
+            for (dr, dc) in [(0isize, 1isize), (0, -1), (1, 0), (-1, 0)] {
+                let (rr, cc) = ((r as isize + dr) as usize, (c as isize + dc) as usize);
+                if !*mask.get(rr, cc) {
+                    pts.push([
+                        c as f64 + 0.5 + 0.5 * dc as f64,
+                        r as f64 + 0.5 + 0.5 * dr as f64,
+                    ]);
+                }
+            }
+        }
     }
-    let mask = photostereo::io::read_mask(&dir.join("mask.png")).unwrap();
-    let opts = DetectOptions {
-        mask: Some(mask),
-        mask_outline: true,
-        ..DetectOptions::default()
-    };
-    let d = detect(&stack, &opts).unwrap();
-    let c = d.circle;
-    println!(
-        "real chrome, from the mask outline: cx {:.2}, cy {:.2}, r {:.2}; rms {:.3} px, {}/{} inliers",
-        c.cx, c.cy, c.radius, d.rms_residual_px, d.inliers, d.edge_points
-    );
-    let o = overlay(&d.max_image, &c);
-    let out = std::env::temp_dir().join("photostereo_chrome_overlay.png");
+    pts
+}
+
+fn save_overlay(d: &photostereo::sphere::Detection, name: &str) {
+    let o = overlay(&d.max_image, &d.circle);
+    let out = std::env::temp_dir().join(name);
     let buf: Vec<u8> = o.data.iter().flatten().copied().collect();
     image::save_buffer(
         &out,
@@ -287,8 +279,105 @@ fn real_chrome_sphere() {
     )
     .unwrap();
     println!("overlay written to {}", out.display());
+}
+
+/// The real chrome sphere (psmImages): a mirror sphere on a dark background, whose
+/// rim shows only against the lit wall behind its upper part (the brightest blob is the
+/// highlight cluster, so the bright-blob detection fails and the contrast-edge fallback
+/// finds it). Compared with circles fitted to the dataset's silhouette mask: its whole
+/// outline (`mask_outline`), and the part above the centre, where the rim shows in the
+/// images (below it the sphere is dark on dark cloth, and the mask there was drawn
+/// without that evidence). Overlays are written for a person to check. Skips when
+/// `../shared` is absent.
+#[test]
+fn real_chrome_sphere() {
+    let Some(shared) = sphere_support::shared_dir() else {
+        println!("skipped: ../shared not found");
+        return;
+    };
+    let dir = shared.join("data/real/chrome");
+    let stack = sphere_support::load_png_dir(&dir);
+    let found = detect(&stack, &DetectOptions::default()).unwrap();
+    let c = found.circle;
+    println!(
+        "real chrome, from the images: cx {:.2}, cy {:.2}, r {:.2}; rms {:.3} px, {}/{} edge points on the rim",
+        c.cx, c.cy, c.radius, found.rms_residual_px, found.inliers, found.edge_points
+    );
+    save_overlay(&found, "photostereo_chrome_overlay_images.png");
+    let mask = photostereo::io::read_mask(&dir.join("mask.png")).unwrap();
+    let opts = DetectOptions {
+        mask: Some(mask.clone()),
+        mask_outline: true,
+        ..DetectOptions::default()
+    };
+    let d = detect(&stack, &opts).unwrap();
+    let m = d.circle;
+    let (ec, er) = errors(&c, &m);
+    println!(
+        "real chrome, from the mask outline: cx {:.2}, cy {:.2}, r {:.2}; rms {:.3} px, {}/{} inliers; \
+         image circle off by {ec:.2} px (centre), {er:.2} px (radius)",
+        m.cx, m.cy, m.radius, d.rms_residual_px, d.inliers, d.edge_points
+    );
+    save_overlay(&d, "photostereo_chrome_overlay.png");
     assert!(d.rms_residual_px < 0.5, "the mask outline is not a circle");
     assert!(d.inliers as f64 > 0.95 * d.edge_points as f64);
+    let upper: Vec<[f64; 2]> = mask_outline_points(&mask)
+        .into_iter()
+        .filter(|p| p[1] < m.cy)
+        .collect();
+    let u = fit_robust(&upper, &FitOptions::default()).unwrap().circle;
+    let (uc, ur) = errors(&c, &u);
+    println!(
+        "mask outline above the centre: cx {:.2}, cy {:.2}, r {:.2}; image circle off by {uc:.2} px (centre), {ur:.2} px (radius)",
+        u.cx, u.cy, u.radius
+    );
+    assert!(uc < 1.0 && ur < 1.0);
+    assert!(found.rms_residual_px < 0.5);
+}
+
+/// A synthetic chrome sphere like the real one: a dark mirror (0.02) with highlights
+/// (1.0) under 12 lights, a dim wall (0.06) behind its upper part and, below, a dark
+/// ground as dark as the sphere (no rim there), 0.2% noise. The bright blob is the
+/// highlight cluster, the contrast edges give the circle.
+#[test]
+fn dark_mirror_sphere_on_a_dark_ground_from_contrast_edges() {
+    let base = Scene {
+        width: 200,
+        height: 160,
+        circle: Circle {
+            cx: 101.3,
+            cy: 78.6,
+            radius: 60.4,
+        },
+        lights: ring_lights(12, 30.0),
+        mirror_light_radius: 0.08,
+        noise_sigma: 0.002,
+        ..Scene::default()
+    };
+    let wall = render(&Scene {
+        background: 0.06,
+        ..base.clone()
+    });
+    let ground = render(&Scene {
+        background: 0.02,
+        seed: 8,
+        ..base.clone()
+    });
+    // the wall ends 20 px below the centre: 0.6 of the rim shows against it
+    let horizon = (base.circle.cy + 20.0) as usize;
+    let mut stack = wall.clone();
+    let per_row = stack.width * stack.k;
+    stack.data[horizon * per_row..].copy_from_slice(&ground.data[horizon * per_row..]);
+    check(
+        "dark mirror sphere, lit wall above",
+        &stack,
+        &base.circle,
+        0.3,
+    );
+    // no wall at all: nothing shows the rim
+    let err = detect(&ground, &DetectOptions::default()).unwrap_err();
+    println!("{err}");
+    assert!(matches!(err, Error::SphereNotFound { .. }), "{err}");
 }
 
 /// The same targets on `synth` renders (point-sampled pixel centres, so a staircase

@@ -41,7 +41,7 @@ impl View<'_> {
     }
 
     /// Sobel gradient (d/dx along columns, d/dy along rows) at an interior pixel.
-    fn sobel(&self, r: usize, c: usize) -> (f64, f64) {
+    pub(crate) fn sobel(&self, r: usize, c: usize) -> (f64, f64) {
         if r == 0 || c == 0 || r + 1 >= self.height || c + 1 >= self.width {
             return (0.0, 0.0);
         }

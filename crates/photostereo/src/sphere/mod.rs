@@ -24,14 +24,21 @@
 //! 5. **Sanity checks** against non-spheres: enough inliers, the filled component
 //!    covers the fitted disk, the circle lies inside the image.
 //!
+//! 6. **Fallback from contrast edges** (module `contrast`): when no bright blob passes
+//!    these checks — a dark mirror (chrome) sphere on a dark background, whose brightest
+//!    pixels are its highlights — the circle is fitted to edge points of the
+//!    log-stretched *mean* image wherever the rim contrasts with what lies behind it,
+//!    by RANSAC scoring the fraction of the rim covered; accepted when at least
+//!    [`DetectOptions::min_rim_coverage`] of the rim shows.
+//!
 //! With [`DetectOptions::mask_outline`] steps 1–2 use a given silhouette mask instead
-//! of the images (for spheres whose rim does not show, such as a chrome sphere on a
-//! dark background).
+//! of the images (for spheres whose rim does not show at all).
 //!
 //! References: N. Otsu, "A threshold selection method from gray-level histograms",
 //! IEEE SMC 1979; I. Kåsa, "A circle fitting procedure and its error analysis",
 //! IEEE TIM 1976; N. Chernov, *Circular and Linear Regression*, CRC 2010.
 
+mod contrast;
 mod edges;
 pub mod fit;
 mod overlay;
@@ -114,6 +121,9 @@ pub struct DetectOptions {
     pub min_inlier_fraction: f64,
     /// Largest accepted |component area / (π r²) − 1|: the bright blob must fill the disk.
     pub max_area_error: f64,
+    /// When no bright blob is found: smallest fraction of the rim that must show as
+    /// contrast edges for a circle found from them (module `contrast`) to be accepted.
+    pub min_rim_coverage: f64,
 }
 
 impl Default for DetectOptions {
@@ -127,6 +137,7 @@ impl Default for DetectOptions {
             inlier_tol_px: 1.0,
             min_inlier_fraction: 0.5,
             max_area_error: 0.25,
+            min_rim_coverage: 0.4,
         }
     }
 }
@@ -148,7 +159,8 @@ pub struct Detection {
 
 /// Find the calibration sphere's circle in a stack of K images (see the module docs).
 ///
-/// Errors: [`Error::SphereNotFound`] when no disk-shaped bright blob is found;
+/// Errors: [`Error::SphereNotFound`] when neither a disk-shaped bright blob nor a
+/// circle of contrast edges is found;
 /// [`Error::InvalidInput`] for an empty stack, a region or circle outside the image;
 /// [`Error::SizeMismatch`] for a mask of another size.
 pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
@@ -175,16 +187,56 @@ pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
         m.check_size(w, h, "sphere mask")?;
     }
     let win = (x0, y0, rw, rh);
-    let crop = match (&opts.mask, opts.mask_outline) {
-        (Some(m), true) => Crop::new(&m.map(|&b| if b { 1.0 } else { 0.0 }), None, win)?,
+    let blob = match (&opts.mask, opts.mask_outline) {
+        (Some(m), true) => {
+            let outline = m.map(|&b| if b { 1.0 } else { 0.0 });
+            return detect_blob(&outline, None, win, opts, max_image);
+        }
         (None, true) => {
             return Err(Error::invalid(
                 "sphere detection from the mask outline",
                 "no mask was given: pass the sphere's mask (--mask FILE)",
             ))
         }
-        (mask, false) => Crop::new(&max_image, mask.as_ref(), win)?,
+        (mask, false) => detect_blob(&max_image, mask.as_ref(), win, opts, max_image.clone()),
     };
+    match blob {
+        Err(Error::SphereNotFound { what, reason, fix }) => contrast_fallback(stack, opts, win)
+            .map_err(|why| Error::SphereNotFound {
+                what,
+                reason: format!("{reason}; from contrast edges: {why}"),
+                fix,
+            }),
+        other => other,
+    }
+}
+
+/// Step 6 of the module docs, as a [`Detection`].
+fn contrast_fallback(
+    stack: &ImageStack,
+    opts: &DetectOptions,
+    win: (usize, usize, usize, usize),
+) -> std::result::Result<Detection, String> {
+    let fit = detect_contrast(stack, opts.mask.as_ref(), win, opts)?;
+    Ok(Detection {
+        circle: fit.circle,
+        rms_residual_px: fit.rms_residual_px,
+        inliers: fit.inliers,
+        edge_points: fit.edge_points,
+        max_image: stack.max_image(),
+    })
+}
+
+/// Steps 2–5 of the module docs on `image` (the maximum image or a mask outline).
+fn detect_blob(
+    image: &GrayImage,
+    mask: Option<&Mask>,
+    win: (usize, usize, usize, usize),
+    opts: &DetectOptions,
+    max_image: GrayImage,
+) -> Result<Detection> {
+    let (x0, y0) = (win.0, win.1);
+    let crop = Crop::new(image, mask, win)?;
     let points = crop.edge_points()?;
     let fit_opts = FitOptions {
         ransac_iterations: opts.ransac_iterations,
@@ -197,7 +249,7 @@ pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
     circle.cx += x0 as f64;
     circle.cy += y0 as f64;
     check_inliers(&fit, points.len(), opts)?;
-    circle.check_inside(w, h, "detected sphere")?;
+    circle.check_inside(max_image.width, max_image.height, "detected sphere")?;
     check_area(&fit, crop.area, opts)?;
     Ok(Detection {
         circle,
@@ -206,6 +258,55 @@ pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
         edge_points: points.len(),
         max_image,
     })
+}
+
+/// The contrast-edge detection ([`contrast`]) in the window; the reason as text when
+/// no circle covers enough of its rim.
+fn detect_contrast(
+    stack: &ImageStack,
+    mask: Option<&Mask>,
+    win: (usize, usize, usize, usize),
+    opts: &DetectOptions,
+) -> std::result::Result<contrast::ContrastFit, String> {
+    let (x0, y0, w, h) = win;
+    let mut mean = Vec::with_capacity(w * h);
+    let mut keep = Vec::with_capacity(w * h);
+    for r in y0..y0 + h {
+        for c in x0..x0 + w {
+            let px = stack.pixel(r, c);
+            let m = px.iter().filter(|v| v.is_finite()).sum::<f32>() / stack.k as f32;
+            mean.push(m);
+            keep.push(mask.is_none_or(|m| *m.get(r, c)));
+        }
+    }
+    let log = contrast::log_mean(&mean, w, h);
+    let view = edges::View {
+        width: w,
+        height: h,
+        data: &log,
+    };
+    let points = contrast::edge_points(&view, mask.map(|_| &keep[..]));
+    let iterations = 20 * opts.ransac_iterations;
+    let Some(fit) = contrast::fit_contrast(&points, w, h, iterations, opts.inlier_tol_px) else {
+        return Err(format!("no circle through {} edge points", points.len()));
+    };
+    let linear = edges::View {
+        width: w,
+        height: h,
+        data: &mean,
+    };
+    let Some(mut fit) = contrast::relocate(&points, &fit, &linear, opts.inlier_tol_px) else {
+        return Err("the rim's edge points could not be located".to_string());
+    };
+    if fit.coverage < opts.min_rim_coverage {
+        return Err(format!(
+            "the best circle has edges on only {:.0}% of its rim",
+            100.0 * fit.coverage
+        ));
+    }
+    fit.circle.cx += x0 as f64;
+    fit.circle.cy += y0 as f64;
+    Ok(fit)
 }
 
 fn not_found(reason: String) -> Error {

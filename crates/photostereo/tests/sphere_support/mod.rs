@@ -6,6 +6,7 @@
 use photostereo::image::{GrayImage, Image, ImageStack};
 use photostereo::sphere::Circle;
 
+#[derive(Clone)]
 pub struct Scene {
     pub width: usize,
     pub height: usize,
