@@ -7,9 +7,11 @@
 //! gy(r, c) = −(q(r, c) + q(r+1, c))/2 that of z(r+1, c) − z(r, c), and terms of edges
 //! outside the rectangle are 0. The 2-D DCT-II diagonalises L with eigenvalues
 //! λ = 2cos(πk/W) + 2cos(πl/H) − 4; z = DCT-III(DCT-II(b)/λ), mean fixed by setting the (0, 0) coefficient to 0.
-//! The DCTs run through `realfft` (Makhoul's reordering), rows then columns, in parallel.
+//! The DCTs run through `realfft` (Makhoul's reordering): rows, then blocks of columns
+//! kept in cache, then rows back, in parallel and in place (see `fft2` for the passes).
 
-use super::support::transpose;
+use super::fft2::columns_in_place;
+use super::fourier::half_angle_terms;
 use rayon::prelude::*;
 use realfft::num_complex::Complex;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
@@ -113,74 +115,105 @@ impl Dct {
 
 /// Solve the Neumann Poisson problem on the W × H rectangle; arbitrary offset.
 pub(crate) fn integrate(p: &[f32], q: &[f32], w: usize, h: usize) -> Vec<f32> {
-    let b = neumann_divergence(p, q, w, h);
-    solve_neumann(b, w, h)
+    solve_neumann(w, h, |r, row| neumann_divergence_row(p, q, w, h, r, row))
 }
 
+/// The Neumann divergence b of the module documentation on the whole grid.
 pub(crate) fn neumann_divergence(p: &[f32], q: &[f32], w: usize, h: usize) -> Vec<f32> {
     let mut b = vec![0.0f32; w * h];
-    b.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
-        let gx = |c: usize| 0.5 * (p[r * w + c] + p[r * w + c + 1]);
-        for (c, v) in row.iter_mut().enumerate() {
-            let gy = |rr: usize| -0.5 * (q[rr * w + c] + q[(rr + 1) * w + c]);
-            let mut s = 0.0;
-            if c + 1 < w {
-                s += gx(c);
-            }
-            if c > 0 {
-                s -= gx(c - 1);
-            }
-            if r + 1 < h {
-                s += gy(r);
-            }
-            if r > 0 {
-                s -= gy(r - 1);
-            }
-            *v = s;
-        }
-    });
+    b.par_chunks_mut(w)
+        .enumerate()
+        .for_each(|(r, row)| neumann_divergence_row(p, q, w, h, r, row));
     b
 }
 
-/// Apply the forward or inverse DCT to every row of length `dct.n`, in parallel.
-fn rows(data: &mut [f32], dct: &Dct, forward: bool) {
-    data.par_chunks_mut(dct.n).for_each_init(
-        || dct.buffers(),
-        |buf, row| {
-            if forward {
-                dct.forward(row, buf);
-            } else {
-                dct.inverse(row, buf);
+/// Row r of the Neumann divergence: b(r, c) = gx(r, c) − gx(r, c−1) + gy(r, c) − gy(r−1, c),
+/// terms of edges outside the rectangle left out. With the trapezoidal targets the
+/// interior terms telescope to central differences, which are computed with zipped
+/// slices so that the loops vectorise.
+fn neumann_divergence_row(p: &[f32], q: &[f32], w: usize, h: usize, r: usize, row: &mut [f32]) {
+    let pr = &p[r * w..][..w];
+    // Horizontal edges: gx(c) − gx(c−1) = (p(c+1) − p(c−1))/2 inside, one edge at the ends.
+    if w == 1 {
+        row[0] = 0.0;
+    } else {
+        row[0] = 0.5 * (pr[0] + pr[1]);
+        row[w - 1] = -0.5 * (pr[w - 2] + pr[w - 1]);
+        for (v, (a, b)) in row[1..w - 1]
+            .iter_mut()
+            .zip(pr[2..].iter().zip(&pr[..w - 2]))
+        {
+            *v = 0.5 * (a - b);
+        }
+    }
+    // Vertical edges: gy(r) − gy(r−1) with gy(r) = −(q(r) + q(r+1))/2, i.e.
+    // (q(r−1) − q(r+1))/2 inside, one edge on the first and last rows.
+    let at = |rr: usize| &q[rr * w..][..w];
+    match (r > 0, r + 1 < h) {
+        (true, true) => {
+            for (v, (a, b)) in row.iter_mut().zip(at(r - 1).iter().zip(at(r + 1))) {
+                *v += 0.5 * (a - b);
+            }
+        }
+        (false, true) => {
+            for (v, (a, b)) in row.iter_mut().zip(at(r).iter().zip(at(r + 1))) {
+                *v -= 0.5 * (a + b);
+            }
+        }
+        (true, false) => {
+            for (v, (a, b)) in row.iter_mut().zip(at(r - 1).iter().zip(at(r))) {
+                *v += 0.5 * (a + b);
+            }
+        }
+        (false, false) => {}
+    }
+}
+
+/// Solve L z = b (Neumann Laplacian of the W × H grid) with 2-D DCTs; `fill_row(r, row)`
+/// writes row r of b. Rows are transformed in parallel, then blocks of columns (forward,
+/// divide by λ, inverse, in cache), then rows back; see [`super::fft2`] for the passes.
+pub(crate) fn solve_neumann(
+    w: usize,
+    h: usize,
+    fill_row: impl Fn(usize, &mut [f32]) + Sync,
+) -> Vec<f32> {
+    let (dw, dh) = (Dct::new(w), Dct::new(h));
+    let mut b = vec![0.0f32; w * h];
+    b.par_chunks_mut(w).enumerate().for_each_init(
+        || dw.buffers(),
+        |buf, (r, row)| {
+            fill_row(r, row);
+            dw.forward(row, buf);
+        },
+    );
+    // λ = 2cos(πk/W) + 2cos(πl/H) − 4 = −(s_k + s_l), s_k = 4 sin²(πk/2W) (no
+    // cancellation at low frequencies, see `fourier`).
+    let s_c = half_angle_terms(w, w, 2.0);
+    let s_r = half_angle_terms(h, h, 2.0);
+    columns_in_place(
+        &mut b,
+        w,
+        h,
+        || dh.buffers(),
+        |k0, cols, buf| {
+            for (dk, col) in cols.chunks_exact_mut(h).enumerate() {
+                let k = k0 + dk;
+                dh.forward(col, buf);
+                for (v, s_l) in col.iter_mut().zip(&s_r) {
+                    let minus_lambda = s_c[k] + s_l;
+                    *v = if minus_lambda > 0.0 {
+                        -*v / minus_lambda
+                    } else {
+                        0.0
+                    };
+                }
+                dh.inverse(col, buf);
             }
         },
     );
-}
-
-/// Solve L z = b (Neumann Laplacian of the W × H grid) with 2-D DCTs.
-pub(crate) fn solve_neumann(mut b: Vec<f32>, w: usize, h: usize) -> Vec<f32> {
-    let (dw, dh) = (Dct::new(w), Dct::new(h));
-    rows(&mut b, &dw, true);
-    let mut t = transpose(&b, h, w);
-    drop(b);
-    rows(&mut t, &dh, true);
-    let cos_r: Vec<f64> = (0..h)
-        .map(|l| 2.0 * (PI * l as f64 / h as f64).cos())
-        .collect();
-    t.par_chunks_mut(h).enumerate().for_each(|(k, col)| {
-        let ck = 2.0 * (PI * k as f64 / w as f64).cos() - 4.0;
-        for (l, v) in col.iter_mut().enumerate() {
-            *v = if k == 0 && l == 0 {
-                0.0
-            } else {
-                (*v as f64 / (ck + cos_r[l])) as f32
-            };
-        }
-    });
-    rows(&mut t, &dh, false);
-    let mut z = transpose(&t, w, h);
-    drop(t);
-    rows(&mut z, &dw, false);
-    z
+    b.par_chunks_mut(w)
+        .for_each_init(|| dw.buffers(), |buf, row| dw.inverse(row, buf));
+    b
 }
 
 #[cfg(test)]

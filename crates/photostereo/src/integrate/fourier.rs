@@ -10,7 +10,6 @@
 
 use super::fft2::Fft2;
 use crate::error::Result;
-use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// Solve on the periodic grid (or on its mirror image when `reflect`); returns the
@@ -23,15 +22,16 @@ pub(crate) fn integrate(
     reflect: bool,
 ) -> Result<Vec<f32>> {
     if !reflect {
-        return Ok(solve_periodic(divergence(p, q, w, h), w, h));
+        return Ok(solve_periodic(w, h, |r, row| {
+            divergence_row(p, q, w, h, r, row)
+        }));
     }
     // Mirror about the right and bottom edges (p odd across a vertical edge, q across a
     // horizontal one). The periodic divergence of the mirrored field is the mirror image
     // of the Neumann divergence of the original one, so build that directly.
     let (we, he) = (2 * w, 2 * h);
     let b = super::dct::neumann_divergence(p, q, w, h);
-    let mut div = vec![0.0f32; we * he];
-    div.par_chunks_mut(we).enumerate().for_each(|(r, row)| {
+    let z = solve_periodic(we, he, |r, row| {
         let src = &b[(if r < h { r } else { he - 1 - r }) * w..][..w];
         row[..w].copy_from_slice(src);
         row[w..]
@@ -39,7 +39,6 @@ pub(crate) fn integrate(
             .zip(src.iter().rev())
             .for_each(|(d, s)| *d = *s);
     });
-    let z = solve_periodic(div, we, he);
     let mut out = Vec::with_capacity(w * h);
     for r in 0..h {
         out.extend_from_slice(&z[r * we..r * we + w]);
@@ -47,41 +46,57 @@ pub(crate) fn integrate(
     Ok(out)
 }
 
-/// Periodic divergence of the trapezoidal edge targets: central differences of p along
-/// rows and of −q along columns, wrapping around.
-fn divergence(p: &[f32], q: &[f32], w: usize, h: usize) -> Vec<f32> {
-    let mut div = vec![0.0f32; w * h];
-    div.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
-        let up = &q[(if r == 0 { h - 1 } else { r - 1 }) * w..][..w];
-        let down = &q[(if r + 1 == h { 0 } else { r + 1 }) * w..][..w];
-        let pr = &p[r * w..][..w];
+/// Row r of the periodic divergence of the trapezoidal edge targets: central
+/// differences of p along rows and of −q along columns, wrapping around.
+fn divergence_row(p: &[f32], q: &[f32], w: usize, h: usize, r: usize, row: &mut [f32]) {
+    let up = &q[(if r == 0 { h - 1 } else { r - 1 }) * w..][..w];
+    let down = &q[(if r + 1 == h { 0 } else { r + 1 }) * w..][..w];
+    let pr = &p[r * w..][..w];
+    if w < 3 {
         for (c, v) in row.iter_mut().enumerate() {
             let left = pr[if c == 0 { w - 1 } else { c - 1 }];
             let right = pr[if c + 1 == w { 0 } else { c + 1 }];
             *v = 0.5 * ((right - left) - (down[c] - up[c]));
         }
-    });
-    div
+        return;
+    }
+    // Interior columns through zipped slices (no index checks), so that it vectorises.
+    let (inner, ahead, behind) = (&mut row[1..w - 1], &pr[2..], &pr[..w - 2]);
+    let vertical = down[1..w - 1].iter().zip(&up[1..w - 1]);
+    for ((v, (a, b)), (d, u)) in inner.iter_mut().zip(ahead.iter().zip(behind)).zip(vertical) {
+        *v = 0.5 * ((a - b) - (d - u));
+    }
+    row[0] = 0.5 * ((pr[1] - pr[w - 1]) - (down[0] - up[0]));
+    row[w - 1] = 0.5 * ((pr[0] - pr[w - 2]) - (down[w - 1] - up[w - 1]));
 }
 
-/// Solve L z = div on the periodic W × H grid by FFT.
-fn solve_periodic(mut div: Vec<f32>, w: usize, h: usize) -> Vec<f32> {
+/// Solve L z = div on the periodic W × H grid by FFT; `fill_row(r, row)` writes row r
+/// of the divergence.
+fn solve_periodic(w: usize, h: usize, fill_row: impl Fn(usize, &mut [f32]) + Sync) -> Vec<f32> {
     let fft = Fft2::new(w, h);
-    let mut spec = fft.forward(&mut div);
-    drop(div);
-    let cos_r: Vec<f64> = (0..h)
-        .map(|l| 2.0 * (2.0 * PI * l as f64 / h as f64).cos())
-        .collect();
-    spec.par_chunks_mut(h).enumerate().for_each(|(k, col)| {
-        let ck = 2.0 * (2.0 * PI * k as f64 / w as f64).cos() - 4.0;
-        for (l, v) in col.iter_mut().enumerate() {
-            let lambda = ck + cos_r[l];
-            *v = if lambda.abs() < 1e-12 {
-                Default::default()
-            } else {
-                *v * (1.0 / lambda) as f32
-            };
+    // λ = 2cos(2πk/W) + 2cos(2πl/H) − 4 = −(s_k + s_l) with s_k = 4 sin²(πk/W): a sum
+    // of two non-negative terms, accurate in f32 even at the lowest frequencies (the
+    // cosine form cancels there).
+    let s_c = half_angle_terms(fft.wc(), w, 1.0);
+    let s_r = half_angle_terms(h, h, 1.0);
+    fft.filter(fill_row, |k, l| {
+        let minus_lambda = s_c[k] + s_r[l];
+        if minus_lambda > 0.0 {
+            -1.0 / minus_lambda
+        } else {
+            0.0
         }
-    });
-    fft.inverse(&mut spec)
+    })
+}
+
+/// s_i = 4 sin²(π·i / (per·n)) for i in 0..count: minus the eigenvalues of the 1-D
+/// Laplacian of a periodic grid of n nodes (per = 1: 2 − 2cos(2πi/n)) or of a Neumann
+/// grid of n nodes (per = 2: 2 − 2cos(πi/n)).
+pub(crate) fn half_angle_terms(count: usize, n: usize, per: f64) -> Vec<f32> {
+    (0..count)
+        .map(|i| {
+            let s = (PI * i as f64 / (per * n as f64)).sin();
+            (4.0 * s * s) as f32
+        })
+        .collect()
 }

@@ -268,7 +268,7 @@ pub fn integrate_gradients_with_progress(
 ) -> Result<Output> {
     let (w, h) = (p.width, p.height);
     check_inputs(p, q, mask, opts)?;
-    let full = mask.data.par_iter().all(|&m| m);
+    let full = support::all_set_par(&mask.data);
     let (p, q, clamped) = support::sanitize(p, q, mask, full);
     // A full mask is one part; the lsq solver needs the labels in every case.
     let comps = (!full || opts.method == Method::Lsq).then(|| label_components(mask));
@@ -297,7 +297,7 @@ pub fn integrate_gradients_with_progress(
     let residual = support::edge_residual(&z, &p, &q, mask) as f32;
     let (depth, parts) = match &comps {
         Some(c) => {
-            if z.par_iter().any(|v| !v.is_finite()) {
+            if !support::all_finite_par(&z) {
                 return Err(non_finite());
             }
             (support::center_components(&z, c, w, h), c.count)
@@ -336,7 +336,11 @@ fn check_inputs(p: &GrayImage, q: &GrayImage, mask: &Mask, opts: &Options) -> Re
             "integration needs an image of at least 2x2 pixels",
         ));
     }
-    if !mask.data.par_iter().any(|&m| m) {
+    if !mask
+        .data
+        .par_chunks(1 << 16)
+        .any(|c| !c.iter().all(|&m| !m))
+    {
         return Err(Error::EmptyMask {
             what: "integration mask".into(),
             fix: "use a mask with non-zero pixels over the object".into(),
