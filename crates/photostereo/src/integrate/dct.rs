@@ -195,20 +195,17 @@ pub(crate) fn solve_neumann(
         w,
         h,
         || dh.buffers(),
-        |k0, cols, buf| {
-            for (dk, col) in cols.chunks_exact_mut(h).enumerate() {
-                let k = k0 + dk;
-                dh.forward(col, buf);
-                for (v, s_l) in col.iter_mut().zip(&s_r) {
-                    let minus_lambda = s_c[k] + s_l;
-                    *v = if minus_lambda > 0.0 {
-                        -*v / minus_lambda
-                    } else {
-                        0.0
-                    };
-                }
-                dh.inverse(col, buf);
+        |k, col, buf| {
+            dh.forward(col, buf);
+            for (v, s_l) in col.iter_mut().zip(&s_r) {
+                let minus_lambda = s_c[k] + s_l;
+                *v = if minus_lambda > 0.0 {
+                    -*v / minus_lambda
+                } else {
+                    0.0
+                };
             }
+            dh.inverse(col, buf);
         },
     );
     b.par_chunks_mut(w)
