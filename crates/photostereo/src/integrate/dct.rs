@@ -66,12 +66,7 @@ impl Dct {
     /// In-place unnormalised DCT-II.
     fn forward(&self, x: &mut [f32], b: &mut Buffers) {
         let n = self.n;
-        for j in 0..n.div_ceil(2) {
-            b.v[j] = x[2 * j];
-        }
-        for j in 0..n / 2 {
-            b.v[n - 1 - j] = x[2 * j + 1];
-        }
+        self.permute(x, b);
         let res = self
             .r2c
             .process_with_scratch(&mut b.v, &mut b.spec, &mut b.scratch);
@@ -95,6 +90,50 @@ impl Dct {
             let xi = if k == 0 { 0.0 } else { x[n - k] };
             b.spec[k] = self.twiddle[k].conj() * Complex::new(xr, -xi);
         }
+        self.finish_inverse(x, b);
+    }
+    /// In place, `inverse(G ⊙ forward(x))` for a gain G(k) per DCT coefficient, without
+    /// forming the coefficients: with Y_k = e^{−iπk/2n} V_k (so X_k = Re Y_k and
+    /// X_{n−k} = −Im Y_k), the filtered spectrum is V'_k = e^{iπk/2n}(G(k) Re Y_k +
+    /// i G(n−k) Im Y_k). One real FFT each way, like `forward` then `inverse`.
+    fn filter(&self, x: &mut [f32], gain: impl Fn(usize) -> f32, b: &mut Buffers) {
+        let n = self.n;
+        self.permute(x, b);
+        let res = self
+            .r2c
+            .process_with_scratch(&mut b.v, &mut b.spec, &mut b.scratch);
+        debug_assert!(res.is_ok());
+        for (k, (v, t)) in b.spec.iter_mut().zip(&self.twiddle).enumerate() {
+            let y = *t * *v;
+            let re = y.re * gain(k);
+            let im = if k == 0 {
+                0.0
+            } else if n - k > n / 2 {
+                y.im * gain(n - k)
+            } else {
+                // k = n/2 of an even n: X_{n/2} is its own partner (see `inverse`).
+                -re
+            };
+            *v = t.conj() * Complex::new(re, im);
+        }
+        self.finish_inverse(x, b);
+    }
+
+    /// v = (x0, x2, x4, …, x5, x3, x1), Makhoul's reordering.
+    fn permute(&self, x: &[f32], b: &mut Buffers) {
+        let n = self.n;
+        for j in 0..n.div_ceil(2) {
+            b.v[j] = x[2 * j];
+        }
+        for j in 0..n / 2 {
+            b.v[n - 1 - j] = x[2 * j + 1];
+        }
+    }
+
+    /// The end of an inverse: spectrum in `b.spec` → real FFT → undo the reordering
+    /// into x, scaled by 1/n.
+    fn finish_inverse(&self, x: &mut [f32], b: &mut Buffers) {
+        let n = self.n;
         b.spec[0].im = 0.0;
         if n % 2 == 0 {
             b.spec[n / 2].im = 0.0;
@@ -196,16 +235,19 @@ pub(crate) fn solve_neumann(
         h,
         || dh.buffers(),
         |k, col, buf| {
-            dh.forward(col, buf);
-            for (v, s_l) in col.iter_mut().zip(&s_r) {
-                let minus_lambda = s_c[k] + s_l;
-                *v = if minus_lambda > 0.0 {
-                    -*v / minus_lambda
-                } else {
-                    0.0
-                };
-            }
-            dh.inverse(col, buf);
+            let s_k = s_c[k];
+            dh.filter(
+                col,
+                |l| {
+                    let minus_lambda = s_k + s_r[l];
+                    if minus_lambda > 0.0 {
+                        -1.0 / minus_lambda
+                    } else {
+                        0.0
+                    }
+                },
+                buf,
+            );
         },
     );
     b.par_chunks_mut(w)
@@ -236,9 +278,23 @@ mod tests {
                     "n={n} k={k}: {yk} vs {want}"
                 );
             }
+            let coefficients = y.clone();
             dct.inverse(&mut y, &mut buf);
             for (a, b) in x.iter().zip(&y) {
                 assert!((a - b).abs() < 1e-5, "n={n}: {a} vs {b}");
+            }
+            // The fused filter equals forward, scale each coefficient, inverse.
+            let gain = |k: usize| 1.0 / (1.0 + k as f32);
+            let mut want: Vec<f32> = coefficients
+                .iter()
+                .enumerate()
+                .map(|(k, c)| c * gain(k))
+                .collect();
+            dct.inverse(&mut want, &mut buf);
+            let mut got = x.clone();
+            dct.filter(&mut got, gain, &mut buf);
+            for (a, b) in want.iter().zip(&got) {
+                assert!((a - b).abs() < 1e-5, "n={n}: filter {b} vs {a}");
             }
         }
     }
