@@ -53,13 +53,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     };
     let mut data = io::load_dataset(&args.dataset, &opts)
         .with_context(|| format!("loading {}", args.dataset.display()))?;
-    let scale = match args.image_scale {
-        Some(s) => s,
-        None => meta_scale(&args.dataset)?.unwrap_or(1.0),
-    };
-    if !(scale.is_finite() && scale > 0.0) {
-        anyhow::bail!("--image-scale {scale}: use a finite factor > 0");
-    }
+    let scale = radiance_scale(&args.dataset, args.image_scale)?;
     data.stack.data.iter_mut().for_each(|v| *v *= scale);
     let lights = data.lights.clone().context("light directions")?;
     let mask = data.mask.clone().context("mask")?;
@@ -114,6 +108,21 @@ fn auto_block(mask: &photostereo::Mask) -> usize {
 }
 
 /// `65535 / scale` from the dataset's meta.json (Mitsuba renders store 16-bit = radiance × scale).
+/// The factor that brings a dataset's images to radiance units: `--image-scale` when
+/// given, else 65535/scale from its `meta.json` (renders that store radiance × scale in
+/// 16-bit PNGs), else 1. Interreflection removal needs it: the bounced light depends on
+/// the absolute albedo, which photometric stereo only knows up to this factor.
+pub(crate) fn radiance_scale(dir: &Path, given: Option<f32>) -> anyhow::Result<f32> {
+    let scale = match given {
+        Some(s) => s,
+        None => meta_scale(dir)?.unwrap_or(1.0),
+    };
+    if !(scale.is_finite() && scale > 0.0) {
+        anyhow::bail!("--image-scale {scale}: use a finite factor > 0");
+    }
+    Ok(scale)
+}
+
 fn meta_scale(dir: &Path) -> anyhow::Result<Option<f32>> {
     let path = dir.join("meta.json");
     if !path.exists() {

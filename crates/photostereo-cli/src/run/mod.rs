@@ -46,6 +46,12 @@ pub struct Args {
     /// Remove interreflections (Nayar–Ikeuchi–Kanade iteration; Lambertian only).
     #[arg(long, requires = "lambertian")]
     pub interreflections: bool,
+    /// Multiply the target images by this factor to bring them to radiance units, so
+    /// that the albedo is absolute (interreflection removal depends on it). Default:
+    /// 65535/scale from the dataset's meta.json if it has one, else 1 (calibrated
+    /// light_intensities.txt do the same job).
+    #[arg(long, requires = "lambertian")]
+    pub image_scale: Option<f32>,
     /// Integrator: path, fc, fc-reflect, dct, lsq (default: dct on a full rectangle,
     /// lsq with a mask).
     #[arg(long)]
@@ -65,7 +71,11 @@ pub fn run(args: Args, global: Global) -> Result<()> {
         mask_path: args.mask.clone(),
         ..Default::default()
     };
-    let target = io::load_dataset(&args.target, &opts)?;
+    let mut target = io::load_dataset(&args.target, &opts)?;
+    if args.lambertian {
+        let scale = crate::interreflect::radiance_scale(&args.target, args.image_scale)?;
+        target.stack.data.iter_mut().for_each(|v| *v *= scale);
+    }
     let load_time = t0.elapsed().as_secs_f64();
     let mask = target
         .mask
