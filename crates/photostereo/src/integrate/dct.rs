@@ -66,11 +66,7 @@ impl Dct {
     /// In-place unnormalised DCT-II.
     fn forward(&self, x: &mut [f32], b: &mut Buffers) {
         let n = self.n;
-        self.permute(x, b);
-        let res = self
-            .r2c
-            .process_with_scratch(&mut b.v, &mut b.spec, &mut b.scratch);
-        debug_assert!(res.is_ok());
+        self.permuted_spectrum(x, b);
         for k in 0..=n / 2 {
             let y = self.twiddle[k] * b.spec[k];
             x[k] = y.re;
@@ -92,17 +88,14 @@ impl Dct {
         }
         self.finish_inverse(x, b);
     }
+
     /// In place, `inverse(G ⊙ forward(x))` for a gain G(k) per DCT coefficient, without
     /// forming the coefficients: with Y_k = e^{−iπk/2n} V_k (so X_k = Re Y_k and
     /// X_{n−k} = −Im Y_k), the filtered spectrum is V'_k = e^{iπk/2n}(G(k) Re Y_k +
     /// i G(n−k) Im Y_k). One real FFT each way, like `forward` then `inverse`.
     fn filter(&self, x: &mut [f32], gain: impl Fn(usize) -> f32, b: &mut Buffers) {
         let n = self.n;
-        self.permute(x, b);
-        let res = self
-            .r2c
-            .process_with_scratch(&mut b.v, &mut b.spec, &mut b.scratch);
-        debug_assert!(res.is_ok());
+        self.permuted_spectrum(x, b);
         for (k, (v, t)) in b.spec.iter_mut().zip(&self.twiddle).enumerate() {
             let y = *t * *v;
             let re = y.re * gain(k);
@@ -119,8 +112,8 @@ impl Dct {
         self.finish_inverse(x, b);
     }
 
-    /// v = (x0, x2, x4, …, x5, x3, x1), Makhoul's reordering.
-    fn permute(&self, x: &[f32], b: &mut Buffers) {
+    /// V = DFT(v) into `b.spec`, v = (x0, x2, x4, …, x5, x3, x1) (Makhoul's reordering).
+    fn permuted_spectrum(&self, x: &[f32], b: &mut Buffers) {
         let n = self.n;
         for j in 0..n.div_ceil(2) {
             b.v[j] = x[2 * j];
@@ -128,6 +121,10 @@ impl Dct {
         for j in 0..n / 2 {
             b.v[n - 1 - j] = x[2 * j + 1];
         }
+        let res = self
+            .r2c
+            .process_with_scratch(&mut b.v, &mut b.spec, &mut b.scratch);
+        debug_assert!(res.is_ok());
     }
 
     /// The end of an inverse: spectrum in `b.spec` → real FFT → undo the reordering
