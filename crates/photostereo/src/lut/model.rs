@@ -17,6 +17,13 @@
 //! Gauss–Newton with variable projection (the coefficients re-fitted at every step),
 //! a small Levenberg damping and step halving; positions are kept inside the table's
 //! search disc.
+//!
+//! For two tables the Jacobian's part that the weights absorb is projected out
+//! (L. Kaufman, "A variable projection method for solving separable nonlinear least
+//! squares problems", BIT 15, 1975), the Gauss–Newton result is polished by a pattern
+//! search down to 1/32 px (the bilinear tables crease the cost at cell edges), and
+//! [`Model::weight_sigma`] gives the weights' standard error from the covariance of
+//! all four parameters.
 
 use super::table::Table;
 
