@@ -575,7 +575,40 @@ pub(crate) fn nnls2(ta: f32, tb: f32, aa: f32, bb: f32, ab: f32) -> [f32; 2] {
 
 #[cfg(test)]
 mod tests {
-    use super::nnls2;
+    use super::{inverse_entry, nnls2};
+
+    #[test]
+    fn inverse_entry_matches_the_inverse() {
+        // M = diag(2, 4, 5, 10) + a rank-one coupling; check M · (M⁻¹ e_j) = e_j
+        let v = [1.0, 0.5, -0.25, 2.0];
+        let mut m = [[0.0f64; 4]; 4];
+        for (r, row) in m.iter_mut().enumerate() {
+            for (c, x) in row.iter_mut().enumerate() {
+                *x = v[r] * v[c]
+                    + if r == c {
+                        [2.0, 4.0, 5.0, 10.0][r]
+                    } else {
+                        0.0
+                    };
+            }
+        }
+        // by Sherman–Morrison: (D + vvᵀ)⁻¹_jj = 1/d_j − (v_j/d_j)² / (1 + Σ v_i²/d_i)
+        let d = [2.0, 4.0, 5.0, 10.0];
+        let s: f64 = (0..4).map(|i| v[i] * v[i] / d[i]).sum();
+        for j in 0..4 {
+            let expected = 1.0 / d[j] - (v[j] / d[j]).powi(2) / (1.0 + s);
+            let got = inverse_entry(m, j).unwrap();
+            assert!((got - expected).abs() < 1e-12, "{j}: {got} vs {expected}");
+        }
+        // a singular matrix has no inverse
+        let mut sing = m;
+        sing[3] = sing[2];
+        sing[0][3] = sing[0][2];
+        sing[1][3] = sing[1][2];
+        sing[2][3] = sing[2][2];
+        sing[3][3] = sing[2][2];
+        assert!(inverse_entry(sing, 0).is_none());
+    }
 
     #[test]
     fn nnls2_clamps_to_the_non_negative_quadrant() {
