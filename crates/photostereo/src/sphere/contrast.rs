@@ -204,20 +204,29 @@ pub(crate) fn fit_contrast(
             best = Some((cov, n, c));
         }
     }
-    let (_, _, mut circle) = best?;
-    for _ in 0..3 {
-        let inl: Vec<[f64; 2]> = points
+    let (_, _, circle) = best?;
+    refine_inliers(points, circle, tol, points.len())
+}
+
+/// Three rounds of geometric refinement on the inliers of `circle`, then the fit's
+/// figures (rms distance of the inliers, rim coverage); `edge_points` is reported as is.
+fn refine_inliers(
+    points: &[EdgePoint],
+    mut circle: Circle,
+    tol: f64,
+    edge_points: usize,
+) -> Option<ContrastFit> {
+    let inliers = |c: &Circle| -> Vec<[f64; 2]> {
+        points
             .iter()
-            .filter(|e| is_inlier(e, &circle, tol))
+            .filter(|e| is_inlier(e, c, tol))
             .map(|e| e.p)
-            .collect();
-        circle = refine_geometric(&inl, circle, 50)?;
+            .collect()
+    };
+    for _ in 0..3 {
+        circle = refine_geometric(&inliers(&circle), circle, 50)?;
     }
-    let inl: Vec<[f64; 2]> = points
-        .iter()
-        .filter(|e| is_inlier(e, &circle, tol))
-        .map(|e| e.p)
-        .collect();
+    let inl = inliers(&circle);
     let ss: f64 = inl
         .iter()
         .map(|p| ((p[0] - circle.cx).hypot(p[1] - circle.cy) - circle.radius).powi(2))
@@ -227,7 +236,7 @@ pub(crate) fn fit_contrast(
         circle,
         rms_residual_px: (ss / inl.len().max(1) as f64).sqrt(),
         inliers: n,
-        edge_points: points.len(),
+        edge_points,
         coverage: cov,
     })
 }
@@ -249,30 +258,5 @@ pub(crate) fn relocate(
             Some(EdgePoint { p, dir: e.dir })
         })
         .collect();
-    let mut circle = c0;
-    for _ in 0..3 {
-        let inl: Vec<[f64; 2]> = moved
-            .iter()
-            .filter(|e| is_inlier(e, &circle, tol))
-            .map(|e| e.p)
-            .collect();
-        circle = refine_geometric(&inl, circle, 50)?;
-    }
-    let inl: Vec<[f64; 2]> = moved
-        .iter()
-        .filter(|e| is_inlier(e, &circle, tol))
-        .map(|e| e.p)
-        .collect();
-    let ss: f64 = inl
-        .iter()
-        .map(|p| ((p[0] - circle.cx).hypot(p[1] - circle.cy) - circle.radius).powi(2))
-        .sum();
-    let (cov, n) = coverage(&moved, &circle, tol);
-    Some(ContrastFit {
-        circle,
-        rms_residual_px: (ss / inl.len().max(1) as f64).sqrt(),
-        inliers: n,
-        edge_points: fit.edge_points,
-        coverage: cov,
-    })
+    refine_inliers(&moved, c0, tol, fit.edge_points)
 }
