@@ -14,6 +14,9 @@ const COARSE_KEEP: usize = 3;
 
 /// Longest run of pixels matched by the coherence shortcut between two tree searches.
 const WARM_RUN: u32 = 16;
+/// Largest step (grid pixels) between neighbouring pixels that the warm start
+/// extrapolates.
+const MAX_EXTRAPOLATION: f64 = 2.0;
 /// Relative residual always accepted by the coherence tests.
 const WARM_FLOOR: f32 = 0.003;
 
@@ -22,8 +25,23 @@ const WARM_FLOOR: f32 = 0.003;
 pub(crate) struct Warm {
     pub gx: f64,
     pub gy: f64,
-    /// Pixels matched by the shortcut since.
+    /// Step from the pixel before (the start is extrapolated by it).
+    pub dgx: f64,
+    pub dgy: f64,
+    /// Pixels matched by the shortcut since the last tree search.
     pub since_tree: u32,
+}
+
+impl Warm {
+    fn at(gx: f64, gy: f64) -> Self {
+        Warm {
+            gx,
+            gy,
+            dgx: 0.0,
+            dgy: 0.0,
+            since_tree: 0,
+        }
+    }
 }
 
 /// √cost / ‖t‖ from a precomputed ‖t‖.
@@ -88,6 +106,8 @@ pub(crate) struct Solver<'a> {
     single: Option<Single>,
     /// Weights 1 for the K lights, 0 for the padding.
     ones: Vec<f32>,
+    /// Table 0's entry at each window pixel (row-major), `u32::MAX` where none.
+    entries_at: Vec<u32>,
     /// Coarse grid: positions and the tables' tuples there.
     coarse_pos: Vec<(f64, f64)>,
     coarse_basis: [Vec<f32>; 2],
@@ -139,16 +159,33 @@ impl<'a> Solver<'a> {
         let single = (!model.is_mix()).then(|| Single::new(t0, opts.normalize));
         let mut ones = vec![0.0; single::padded(k)];
         ones[..k].fill(1.0);
+        let ws = &t0.window.stack;
+        let mut entries_at = vec![u32::MAX; ws.width * ws.height];
+        for (e, [r, c]) in t0.entries.pixels.iter().enumerate() {
+            let (r, c) = (*r as usize - t0.window.row0, *c as usize - t0.window.col0);
+            entries_at[r * ws.width + c] = e as u32;
+        }
         Solver {
             model,
             opts,
             index,
             single,
             ones,
+            entries_at,
             coarse_pos,
             coarse_basis,
             coarse_step,
             peaks,
+        }
+    }
+
+    /// Table 0's entry at window pixel (r, c), `u32::MAX` where none.
+    fn entry_at(&self, r: usize, c: usize) -> u32 {
+        let w = self.model.tables[0].window.stack.width;
+        if c < w {
+            self.entries_at.get(r * w + c).copied().unwrap_or(u32::MAX)
+        } else {
+            u32::MAX
         }
     }
 
@@ -175,18 +212,14 @@ impl<'a> Solver<'a> {
             (Some(index), Method::Refined) => match self.warm_start(wk) {
                 Some(fit) => fit,
                 None => {
-                    let fit = self.tree_match(index, wk);
+                    let fit = self.tree_match(index, None, wk);
                     let fit = self.refine(false, fit, wk);
                     wk.s.rel_ref = relative_to(wk.norm, fit.cost);
-                    wk.s.warm = Some(Warm {
-                        gx: fit.gx,
-                        gy: fit.gy,
-                        since_tree: 0,
-                    });
+                    wk.s.warm = Some(Warm::at(fit.gx, fit.gy));
                     fit
                 }
             },
-            (Some(index), _) => self.tree_match(index, wk),
+            (Some(index), _) => self.tree_match(index, None, wk),
             (None, _) => self.exhaustive(false, wk),
         };
         wk.w[..k].fill(1.0);
@@ -215,7 +248,13 @@ impl<'a> Solver<'a> {
             }
         }
         match (&mut wk.s.warm, shadowed) {
-            (Some(warm), 0) => (warm.gx, warm.gy) = (fit.gx, fit.gy),
+            (Some(warm), 0) => {
+                let (dx, dy) = (fit.gx - warm.gx, fit.gy - warm.gy);
+                // extrapolate only small, smooth steps
+                let smooth = dx * dx + dy * dy <= MAX_EXTRAPOLATION * MAX_EXTRAPOLATION;
+                (warm.dgx, warm.dgy) = if smooth { (dx, dy) } else { (0.0, 0.0) };
+                (warm.gx, warm.gy) = (fit.gx, fit.gy);
+            }
             _ => wk.s.warm = None,
         }
         let mut out = self.finish(&wk.t[..k], &wk.w[..k], fit, shadowed);
@@ -261,29 +300,39 @@ impl<'a> Solver<'a> {
         p.fit()
     }
 
-    /// Coherence shortcut: Gauss–Newton from the previous pixel's solution, accepted
-    /// when its relative residual is at most 1.5 × that of the last pixel matched through
-    /// the tree (or 0.3%), and at most 16 pixels after that tree search.
+    /// Coherence shortcut: Gauss–Newton from the previous pixel's solution extrapolated
+    /// by its step, accepted when its relative residual is at most 1.5 × that of the last
+    /// pixel matched through the tree (or 0.3%). Every 16 pixels it is checked against
+    /// the tree: kept when the best tree candidate lies within 1.5 px of it or fits worse.
     fn warm_start(&self, wk: &mut Work) -> Option<Fit> {
         let warm = wk.s.warm?;
-        if warm.since_tree >= WARM_RUN {
-            return None;
-        }
         let start = Fit {
-            gx: warm.gx,
-            gy: warm.gy,
+            gx: warm.gx + warm.dgx,
+            gy: warm.gy + warm.dgy,
             coef: [1.0, 0.0],
             cost: f32::INFINITY,
         };
         let fit = self.refine(false, start, wk);
-        if relative_to(wk.norm, fit.cost) <= (1.5 * wk.s.rel_ref).max(WARM_FLOOR) {
-            if let Some(w) = wk.s.warm.as_mut() {
-                w.since_tree += 1;
-            }
-            Some(fit)
-        } else {
-            None
+        let rel = relative_to(wk.norm, fit.cost);
+        if rel > (1.5 * wk.s.rel_ref).max(WARM_FLOOR) {
+            return None;
         }
+        let since = if warm.since_tree + 1 >= WARM_RUN {
+            let index = self.index.as_ref()?;
+            let e = self.tree_match(index, Some(&fit), wk);
+            let far = (e.gx - fit.gx).powi(2) + (e.gy - fit.gy).powi(2) > 1.5 * 1.5;
+            if far && e.cost < fit.cost {
+                return None;
+            }
+            wk.s.rel_ref = rel;
+            0
+        } else {
+            warm.since_tree + 1
+        };
+        if let Some(w) = wk.s.warm.as_mut() {
+            w.since_tree = since;
+        }
+        Some(fit)
     }
 
     /// Brightness below which a target sample counts as dark, for a fit.
@@ -292,11 +341,26 @@ impl<'a> Solver<'a> {
         self.opts.shadow_level * reference
     }
 
-    /// Nearest entries in the index, re-ranked on the full K-dimensional cost.
-    fn tree_match(&self, index: &Index, wk: &mut Work) -> Fit {
+    /// Nearest entries in the index, re-ranked on the full K-dimensional cost. The
+    /// search is seeded with the previous pixel's candidates, or with the entries around
+    /// `near` when given.
+    fn tree_match(&self, index: &Index, near: Option<&Fit>, wk: &mut Work) -> Fit {
         let k = self.model.k;
         let t = &wk.t[..k];
         let query = self.query(t, index, &mut wk.q);
+        if let Some(f) = near {
+            wk.s.seeds.clear();
+            let (c0, r0) = (
+                f.gx.floor().max(0.0) as usize,
+                f.gy.floor().max(0.0) as usize,
+            );
+            for (dr, dc) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                let e = self.entry_at(r0 + dr, c0 + dc);
+                if e != u32::MAX {
+                    wk.s.seeds.push(e);
+                }
+            }
+        }
         let cands = index.nearest(query, self.opts.candidates, &wk.s.seeds);
         wk.s.seeds.clear();
         wk.s.seeds.extend_from_slice(&cands.ids[..cands.len]);
