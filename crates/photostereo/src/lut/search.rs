@@ -30,6 +30,8 @@ pub(crate) struct Warm {
     pub dgy: f64,
     /// Pixels matched by the shortcut since the last tree search.
     pub since_tree: u32,
+    /// The solution had lights dropped as cast-shadowed (they are in `Work::prev_w`).
+    pub masked: bool,
 }
 
 impl Warm {
@@ -40,6 +42,7 @@ impl Warm {
             dgx: 0.0,
             dgy: 0.0,
             since_tree: 0,
+            masked: false,
         }
     }
 }
@@ -59,6 +62,8 @@ pub(crate) struct Work {
     /// Target tuple of the current pixel (first K values; the rest stay 0).
     pub t: Vec<f32>,
     w: Vec<f32>,
+    /// Weights of the previous pixel (when it had lights dropped).
+    prev_w: Vec<f32>,
     q: Vec<f32>,
     pub s: Scratch,
     b: Buf,
@@ -74,6 +79,7 @@ impl Work {
         Work {
             t: vec![0.0; kp],
             w: vec![0.0; kp],
+            prev_w: vec![0.0; kp],
             q: vec![0.0; k + 8],
             s: Scratch::new(k),
             b: Buf::new(k),
@@ -205,10 +211,40 @@ impl<'a> Solver<'a> {
         let k = self.model.k;
         wk.norm = wk.t[..k].iter().map(|v| v * v).sum::<f32>().sqrt();
         wk.fresh = false;
-        let mut fit = match (&self.index, self.opts.method) {
-            (Some(index), Method::InverseDistance { neighbours }) => {
-                return self.inverse_distance(index, neighbours, wk);
+        if let (Some(index), Method::InverseDistance { neighbours }) =
+            (&self.index, self.opts.method)
+        {
+            return self.inverse_distance(index, neighbours, wk);
+        }
+        let (fit, shadowed) = match self.shadowed_warm_start(wk) {
+            Some(found) => found,
+            None => {
+                let fit = self.first_fit(wk);
+                wk.w[..k].fill(1.0);
+                if self.opts.method == Method::Refined {
+                    self.drop_shadowed(fit, wk)
+                } else {
+                    (fit, 0)
+                }
             }
+        };
+        self.update_warm(&fit, shadowed, wk);
+        let mut out = self.finish(&wk.t[..k], &wk.w[..k], fit, shadowed);
+        if self.model.is_mix() {
+            let sigma = self
+                .model
+                .weight_sigma(&wk.t[..k], &wk.w[..k], &fit, &mut wk.s);
+            out.weight_sigma = sigma;
+            let factor = 1.0 / (1.0 + (sigma / self.opts.weight_scale).powi(2));
+            out.confidence *= if factor.is_finite() { factor } else { 0.0 };
+        }
+        out
+    }
+
+    /// The fit on all lights: coherence shortcut or tree search + refinement (one
+    /// table), or the exhaustive search (two tables).
+    fn first_fit(&self, wk: &mut Work) -> Fit {
+        match (&self.index, self.opts.method) {
             (Some(index), Method::Refined) => match self.warm_start(wk) {
                 Some(fit) => fit,
                 None => {
@@ -221,52 +257,111 @@ impl<'a> Solver<'a> {
             },
             (Some(index), _) => self.tree_match(index, None, wk),
             (None, _) => self.exhaustive(false, wk),
-        };
-        wk.w[..k].fill(1.0);
+        }
+    }
+
+    /// Cast shadows (module docs, step 4): drop the lights where the target is dark but
+    /// the model of `fit` is lit and search again, up to 3 rounds. Returns the fit and the
+    /// number of dropped lights (weights in `wk.w`).
+    fn drop_shadowed(&self, mut fit: Fit, wk: &mut Work) -> (Fit, u16) {
+        let k = self.model.k;
         let mut shadowed = 0u16;
-        if self.opts.method == Method::Refined {
-            for _round in 0..3 {
-                self.predict(&fit, wk);
-                let level = if self.model.is_mix() {
-                    self.model.mix_dark_level(self.opts.shadow_level, &wk.s)
-                } else {
-                    self.level(&fit)
-                };
-                let mut new = false;
-                let (t, w, pred) = (&wk.t[..k], &mut wk.w[..k], &wk.s.pred[..k]);
-                for i in 0..k {
-                    if w[i] > 0.0 && t[i] < level && pred[i] > t[i] + level {
-                        w[i] = 0.0;
-                        shadowed += 1;
-                        new = true;
-                    }
+        for _round in 0..3 {
+            self.predict(&fit, wk);
+            let level = self.dark_level(&fit, wk);
+            let mut new = false;
+            let (t, w, pred) = (&wk.t[..k], &mut wk.w[..k], &wk.s.pred[..k]);
+            for i in 0..k {
+                if w[i] > 0.0 && t[i] < level && pred[i] > t[i] + level {
+                    w[i] = 0.0;
+                    shadowed += 1;
+                    new = true;
                 }
-                if !new || (k as u16 - shadowed) < 2 {
-                    break;
-                }
-                fit = self.masked_search(fit, wk);
             }
-        }
-        match (&mut wk.s.warm, shadowed) {
-            (Some(warm), 0) => {
-                let (dx, dy) = (fit.gx - warm.gx, fit.gy - warm.gy);
-                // extrapolate only small, smooth steps
-                let smooth = dx * dx + dy * dy <= MAX_EXTRAPOLATION * MAX_EXTRAPOLATION;
-                (warm.dgx, warm.dgy) = if smooth { (dx, dy) } else { (0.0, 0.0) };
-                (warm.gx, warm.gy) = (fit.gx, fit.gy);
+            if !new || (k as u16 - shadowed) < 2 {
+                break;
             }
-            _ => wk.s.warm = None,
+            fit = self.masked_search(fit, wk);
         }
-        let mut out = self.finish(&wk.t[..k], &wk.w[..k], fit, shadowed);
+        (fit, shadowed)
+    }
+
+    /// Dark level of `fit` whose model tuple is in `wk.s.pred`.
+    fn dark_level(&self, fit: &Fit, wk: &Work) -> f32 {
         if self.model.is_mix() {
-            let sigma = self
-                .model
-                .weight_sigma(&wk.t[..k], &wk.w[..k], &fit, &mut wk.s);
-            out.weight_sigma = sigma;
-            let factor = 1.0 / (1.0 + (sigma / self.opts.weight_scale).powi(2));
-            out.confidence *= if factor.is_finite() { factor } else { 0.0 };
+            self.model.mix_dark_level(self.opts.shadow_level, &wk.s)
+        } else {
+            self.level(fit)
         }
-        out
+    }
+
+    /// Coherence for cast shadows (one table): when the previous pixel had lights
+    /// dropped, fit this one from its solution with the same lights dropped, then
+    /// re-derive the dropped set at the new fit (a light is dropped when the target is
+    /// dark there and the model lit, as in step 4) and refit until the set is stable (up
+    /// to 3 fits). Accepted when the relative residual on the lights kept passes the
+    /// coherence test; otherwise `None` and the full search runs.
+    fn shadowed_warm_start(&self, wk: &mut Work) -> Option<(Fit, u16)> {
+        let k = self.model.k;
+        let warm = wk.s.warm.filter(|w| w.masked && self.single.is_some())?;
+        let (kp, w) = (wk.w.len(), &mut wk.w);
+        w.copy_from_slice(&wk.prev_w[..kp]);
+        let mut fit = Fit {
+            gx: warm.gx,
+            gy: warm.gy,
+            coef: [1.0, 0.0],
+            cost: f32::INFINITY,
+        };
+        for _ in 0..3 {
+            fit = self.refine(true, fit, wk);
+            let (t, w) = (&wk.t[..k], &wk.w[..k]);
+            let energy: f32 = t.iter().zip(w).map(|(t, w)| w * t * t).sum();
+            if energy <= 0.0
+                || fit.cost.max(0.0) > energy * (1.5 * wk.s.rel_ref).max(WARM_FLOOR).powi(2)
+            {
+                return None;
+            }
+            self.predict(&fit, wk);
+            let level = self.dark_level(&fit, wk);
+            let (t, w, pred) = (&wk.t[..k], &mut wk.w[..k], &wk.s.pred[..k]);
+            let (mut changed, mut shadowed) = (false, 0u16);
+            for i in 0..k {
+                let lit = !(t[i] < level && pred[i] > t[i] + level);
+                changed |= lit != (w[i] > 0.0);
+                w[i] = if lit { 1.0 } else { 0.0 };
+                shadowed += (!lit) as u16;
+            }
+            if (k as u16 - shadowed) < 2 {
+                return None;
+            }
+            if !changed {
+                return Some((fit, shadowed));
+            }
+            fit.cost = f32::INFINITY;
+        }
+        None
+    }
+
+    /// Remember this pixel's solution for the next one.
+    fn update_warm(&self, fit: &Fit, shadowed: u16, wk: &mut Work) {
+        let Some(warm) = wk.s.warm.as_mut() else {
+            return;
+        };
+        if shadowed == 0 {
+            let (dx, dy) = (fit.gx - warm.gx, fit.gy - warm.gy);
+            // extrapolate only small, smooth steps (and not out of a shadow)
+            let smooth = !warm.masked && dx * dx + dy * dy <= MAX_EXTRAPOLATION.powi(2);
+            (warm.dgx, warm.dgy) = if smooth { (dx, dy) } else { (0.0, 0.0) };
+            warm.masked = false;
+        } else if self.single.is_some() {
+            (warm.dgx, warm.dgy) = (0.0, 0.0);
+            warm.masked = true;
+            wk.prev_w.copy_from_slice(&wk.w);
+        } else {
+            wk.s.warm = None;
+            return;
+        }
+        (warm.gx, warm.gy) = (fit.gx, fit.gy);
     }
 
     /// The model tuple of `fit` into `wk.s.pred` (from the fast path's buffer when it
@@ -342,8 +437,8 @@ impl<'a> Solver<'a> {
     }
 
     /// Nearest entries in the index, re-ranked on the full K-dimensional cost. The
-    /// search is seeded with the previous pixel's candidates, or with the entries around
-    /// `near` when given.
+    /// search is seeded with the previous pixel's candidates; when checking a fit `near`,
+    /// with the entries around it, and only the nearest entry is looked for.
     fn tree_match(&self, index: &Index, near: Option<&Fit>, wk: &mut Work) -> Fit {
         let k = self.model.k;
         let t = &wk.t[..k];
@@ -361,7 +456,13 @@ impl<'a> Solver<'a> {
                 }
             }
         }
-        let cands = index.nearest(query, self.opts.candidates, &wk.s.seeds);
+        // a check only needs the nearest entry
+        let m = if near.is_some() {
+            1
+        } else {
+            self.opts.candidates
+        };
+        let cands = index.nearest(query, m, &wk.s.seeds);
         wk.s.seeds.clear();
         wk.s.seeds.extend_from_slice(&cands.ids[..cands.len]);
         let mut best = (f32::INFINITY, [1.0, 0.0], u32::MAX);
