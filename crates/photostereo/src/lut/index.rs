@@ -9,6 +9,8 @@
 //! to be close (e.g. the match of the neighbouring pixel): the seeds tighten the
 //! search radius from the start, while the answer stays the exact m nearest.
 
+use rayon::prelude::*;
+
 /// Largest number of candidates one query returns.
 pub const MAX_CANDIDATES: usize = 16;
 const LEAF: usize = 8;
@@ -19,7 +21,7 @@ pub struct Index {
     k: usize,
     d: usize,
     mean: Vec<f32>,
-    /// d × K projection rows (principal axes).
+    /// Principal axes, transposed: K rows of 8 (the d axes' components, zero-padded).
     axes: Vec<f32>,
     /// Projected points in tree order, `d` per point.
     coords: Vec<f32>,
@@ -93,15 +95,19 @@ impl Index {
         let (mean, axes) = principal_axes(points, k, keep, d);
         let mut ids: Vec<u32> = (0..n as u32).filter(|&i| keep[i as usize]).collect();
         let mut proj = vec![0.0f32; n * d];
-        for &i in &ids {
-            let i = i as usize;
-            project_into(
-                &points[i * k..(i + 1) * k],
-                &mean,
-                &axes,
-                &mut proj[i * d..(i + 1) * d],
-            );
-        }
+        proj.par_chunks_mut(d * 1024)
+            .zip(points.par_chunks(k * 1024))
+            .zip(keep.par_chunks(1024))
+            .for_each(|((out, pts), kp)| {
+                for ((o, p), _) in out
+                    .chunks_exact_mut(d)
+                    .zip(pts.chunks_exact(k))
+                    .zip(kp)
+                    .filter(|(_, &kept)| kept)
+                {
+                    project_into(p, &mean, &axes, o);
+                }
+            });
         let mut nodes = Vec::new();
         build_node(&mut ids, &proj, d, &mut nodes);
         let mut coords = Vec::with_capacity(ids.len() * d);
@@ -197,23 +203,108 @@ impl Index {
     }
 }
 
+/// out = Aᵀ(tuple − mean) with `axes` transposed (K rows of 8; see [`Index`]).
 fn project_into(tuple: &[f32], mean: &[f32], axes: &[f32], out: &mut [f32]) {
-    let k = mean.len();
-    for (j, o) in out.iter_mut().enumerate() {
-        let axis = &axes[j * k..(j + 1) * k];
-        *o = tuple
-            .iter()
-            .zip(mean)
-            .zip(axis)
-            .map(|((t, m), a)| (t - m) * a)
-            .sum();
+    let mut acc = [0.0f32; 8];
+    for ((t, m), row) in tuple.iter().zip(mean).zip(axes.chunks_exact(8)) {
+        let c = t - m;
+        for (a, r) in acc.iter_mut().zip(row) {
+            *a += c * r;
+        }
     }
+    let d = out.len();
+    out.copy_from_slice(&acc[..d]);
 }
 
 /// Build the subtree over `ids` (reordered in place); nodes are stored depth-first, the
-/// left child right after its parent.
+/// left child right after its parent. Large subtrees are built in parallel.
 fn build_node(ids: &mut [u32], proj: &[f32], d: usize, nodes: &mut Vec<Node>) {
-    build_range(ids, 0, proj, d, nodes);
+    build_par(ids, 0, proj, d, nodes);
+}
+
+/// Subtrees of more points than this are built on two threads.
+const PAR_POINTS: usize = 4096;
+
+fn build_par(ids: &mut [u32], offset: usize, proj: &[f32], d: usize, nodes: &mut Vec<Node>) {
+    if ids.len() <= PAR_POINTS {
+        return build_range(ids, offset, proj, d, nodes);
+    }
+    let me = nodes.len();
+    let (dim, value, mid) = split(ids, proj, d);
+    nodes.push(Node::Split {
+        dim: dim as u16,
+        value,
+        right: 0,
+    });
+    let (left, right) = ids.split_at_mut(mid);
+    let (mut l, mut r) = (Vec::new(), Vec::new());
+    rayon::join(
+        || build_par(left, offset, proj, d, &mut l),
+        || build_par(right, offset + mid, proj, d, &mut r),
+    );
+    append_shifted(nodes, l);
+    let right_index = nodes.len() as u32;
+    if let Node::Split { right: rr, .. } = &mut nodes[me] {
+        *rr = right_index;
+    }
+    append_shifted(nodes, r);
+}
+
+/// Append a subtree built on its own (node indices from 0) to `nodes`.
+fn append_shifted(nodes: &mut Vec<Node>, sub: Vec<Node>) {
+    let base = nodes.len() as u32;
+    nodes.extend(sub.into_iter().map(|n| match n {
+        Node::Split { dim, value, right } => Node::Split {
+            dim,
+            value,
+            right: right + base,
+        },
+        leaf => leaf,
+    }));
+}
+
+/// Split `ids` at the median of their widest dimension (measured on at most ~256
+/// points): returns (dimension, value, index of the median); `ids` is partitioned.
+fn split(ids: &mut [u32], proj: &[f32], d: usize) -> (usize, f32, usize) {
+    let stride = (ids.len() / 256).max(1);
+    let mut dim = 0;
+    let mut widest = -1.0f32;
+    for j in 0..d {
+        let (lo, hi) =
+            ids.iter()
+                .step_by(stride)
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &i| {
+                    let v = proj[i as usize * d + j];
+                    (lo.min(v), hi.max(v))
+                });
+        if hi - lo > widest {
+            widest = hi - lo;
+            dim = j;
+        }
+    }
+    // select the median on packed (order-preserving key, id) pairs: one gather, then
+    // integer comparisons on contiguous memory
+    let mut packed: Vec<u64> = ids
+        .iter()
+        .map(|&i| ((sortable(proj[i as usize * d + dim]) as u64) << 32) | i as u64)
+        .collect();
+    let mid = ids.len() / 2;
+    packed.select_nth_unstable(mid);
+    for (dst, p) in ids.iter_mut().zip(&packed) {
+        *dst = *p as u32;
+    }
+    (dim, proj[ids[mid] as usize * d + dim], mid)
+}
+
+/// A u32 whose unsigned order is the total order of the f32 `v`.
+#[inline]
+fn sortable(v: f32) -> u32 {
+    let b = v.to_bits();
+    if b & 0x8000_0000 != 0 {
+        !b
+    } else {
+        b | 0x8000_0000
+    }
 }
 
 fn build_range(ids: &mut [u32], offset: usize, proj: &[f32], d: usize, nodes: &mut Vec<Node>) {
@@ -225,26 +316,7 @@ fn build_range(ids: &mut [u32], offset: usize, proj: &[f32], d: usize, nodes: &m
         });
         return;
     }
-    // widest dimension
-    let mut dim = 0;
-    let mut widest = -1.0f32;
-    for j in 0..d {
-        let (lo, hi) = ids
-            .iter()
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &i| {
-                let v = proj[i as usize * d + j];
-                (lo.min(v), hi.max(v))
-            });
-        if hi - lo > widest {
-            widest = hi - lo;
-            dim = j;
-        }
-    }
-    let mid = ids.len() / 2;
-    ids.select_nth_unstable_by(mid, |&a, &b| {
-        proj[a as usize * d + dim].total_cmp(&proj[b as usize * d + dim])
-    });
-    let value = proj[ids[mid] as usize * d + dim];
+    let (dim, value, mid) = split(ids, proj, d);
     nodes.push(Node::Split {
         dim: dim as u16,
         value,
@@ -259,8 +331,19 @@ fn build_range(ids: &mut [u32], offset: usize, proj: &[f32], d: usize, nodes: &m
     build_range(right, offset + mid, proj, d, nodes);
 }
 
-/// Mean and top-`d` principal axes (d × k, unit rows) of the kept points.
+/// Mean and top-`d` principal axes of the kept points, transposed (k rows of 8, the
+/// unit axes in the first d columns).
 fn principal_axes(points: &[f32], k: usize, keep: &[bool], d: usize) -> (Vec<f32>, Vec<f32>) {
+    // a regular subsample of at most ~4096 points fixes the axes well enough (the tree
+    // is exact in whatever space it is given)
+    let kept = keep.iter().filter(|&&kp| kp).count();
+    let stride = (kept / 4096).max(1);
+    let sub: Vec<bool> = keep
+        .iter()
+        .enumerate()
+        .map(|(i, &kp)| kp && i % stride == 0)
+        .collect();
+    let keep = if sub.iter().any(|&kp| kp) { &sub } else { keep };
     let mut mean = vec![0.0f64; k];
     let mut count = 0.0f64;
     for (i, _) in keep.iter().enumerate().filter(|(_, &kp)| kp) {
@@ -294,9 +377,11 @@ fn principal_axes(points: &[f32], k: usize, keep: &[bool], d: usize) -> (Vec<f32
     let (values, vectors) = jacobi_eigen(cov, k);
     let mut order: Vec<usize> = (0..k).collect();
     order.sort_by(|&a, &b| values[b].total_cmp(&values[a]));
-    let mut axes = Vec::with_capacity(d * k);
-    for &j in order.iter().take(d) {
-        axes.extend((0..k).map(|r| vectors[r * k + j] as f32));
+    let mut axes = vec![0.0f32; k * 8];
+    for (col, &j) in order.iter().take(d).enumerate() {
+        for r in 0..k {
+            axes[r * 8 + col] = vectors[r * k + j] as f32;
+        }
     }
     (mean.iter().map(|&m| m as f32).collect(), axes)
 }

@@ -52,6 +52,7 @@
 pub mod format;
 pub mod index;
 mod model;
+mod planes;
 mod search;
 mod single;
 pub mod table;
@@ -62,8 +63,9 @@ use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, ImageStack, Mask, NormalMap};
 use crate::progress::Progress;
 use model::Model;
+use planes::Planes;
 use rayon::prelude::*;
-use search::{PixelOut, Solver, Work};
+use search::{Solver, Work};
 
 /// How a target tuple is turned into a normal.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -178,24 +180,30 @@ pub fn solve(
     let model = Model::new(tables, opts.normalize);
     let solver = Solver::new(model, opts);
     let (w, h, k) = (stack.width, stack.height, stack.k);
-    let mut out = vec![PixelOut::default(); w * h];
+    let mut planes = Planes::new(w, h, tables.len(), opts.normalize);
     progress.start("lookup", h as u64);
-    out.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
-        let mut wk = Work::new(k);
-        for (c, px) in row.iter_mut().enumerate() {
-            if !*mask.get(r, c) {
-                wk.s.warm = None;
-                continue;
+    let stats = planes
+        .rows()
+        .into_par_iter()
+        .enumerate()
+        .map(|(r, mut row)| {
+            let mut wk = Work::new(k);
+            for c in 0..w {
+                if !*mask.get(r, c) {
+                    wk.s.warm = None;
+                    continue;
+                }
+                for (dst, &v) in wk.t.iter_mut().zip(stack.pixel(r, c)) {
+                    *dst = if v.is_finite() { v } else { 0.0 };
+                }
+                row.set(c, &solver.pixel(&mut wk));
             }
-            for (dst, &v) in wk.t.iter_mut().zip(stack.pixel(r, c)) {
-                *dst = if v.is_finite() { v } else { 0.0 };
-            }
-            *px = solver.pixel(&mut wk);
-        }
-        progress.advance(1);
-    });
+            progress.advance(1);
+            row.stats
+        })
+        .reduce(Stats::default, planes::add_stats);
     progress.finish();
-    Ok(assemble(out, mask, tables.len(), opts.normalize))
+    Ok(planes.into_output(stats))
 }
 
 fn check_inputs(stack: &ImageStack, mask: &Mask, tables: &[Table], opts: &Options) -> Result<()> {
@@ -236,46 +244,4 @@ fn check_inputs(stack: &ImageStack, mask: &Mask, tables: &[Table], opts: &Option
         ));
     }
     Ok(())
-}
-
-fn assemble(out: Vec<PixelOut>, mask: &Mask, n_tables: usize, normalize: bool) -> Output {
-    let (w, h) = (mask.width, mask.height);
-    let img = |f: &dyn Fn(&PixelOut) -> f32| Image {
-        width: w,
-        height: h,
-        data: out.iter().map(f).collect::<Vec<f32>>(),
-    };
-    let mut stats = Stats::default();
-    for (px, &inside) in out.iter().zip(&mask.data) {
-        if inside {
-            stats.pixels += 1;
-            stats.shadowed_pixels += (px.shadowed > 0) as usize;
-            stats.low_confidence_pixels += (px.confidence < 0.5) as usize;
-            stats.mean_residual += px.residual as f64;
-        }
-    }
-    stats.mean_residual /= stats.pixels.max(1) as f64;
-    Output {
-        normals: Image {
-            width: w,
-            height: h,
-            data: out.iter().map(|p| p.normal).collect(),
-        },
-        confidence: img(&|p| p.confidence),
-        residual: img(&|p| p.residual),
-        albedo: (normalize && n_tables == 1).then(|| img(&|p| p.coef[0])),
-        weights: (n_tables == 2).then(|| vec![img(&|p| p.coef[0]), img(&|p| p.coef[1])]),
-        weight_sigma: (n_tables == 2).then(|| img(&|p| p.weight_sigma)),
-        shadowed_lights: Image {
-            width: w,
-            height: h,
-            data: out.iter().map(|p| p.shadowed).collect(),
-        },
-        lit_lights: Image {
-            width: w,
-            height: h,
-            data: out.iter().map(|p| p.lit).collect(),
-        },
-        stats,
-    }
 }

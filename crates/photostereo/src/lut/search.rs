@@ -109,7 +109,7 @@ pub(crate) struct Solver<'a> {
     /// Index over table 0's entries (single table only).
     index: Option<Index>,
     /// Fused refinement (single table only).
-    single: Option<Single>,
+    single: Option<Single<'a>>,
     /// Weights 1 for the K lights, 0 for the padding.
     ones: Vec<f32>,
     /// Table 0's entry at each window pixel (row-major), `u32::MAX` where none.
@@ -127,10 +127,10 @@ impl<'a> Solver<'a> {
         let t0 = &model.tables[0];
         let k = model.k;
         let n = t0.entries.len();
-        let mut ranked = t0.entries.tuples.clone();
+        let mut ranked = std::borrow::Cow::Borrowed(&t0.entries.tuples[..]);
         let mut keep = vec![true; n];
         if opts.normalize {
-            for (e, tuple) in ranked.chunks_exact_mut(k).enumerate() {
+            for (e, tuple) in ranked.to_mut().chunks_exact_mut(k).enumerate() {
                 let norm = tuple.iter().map(|v| v * v).sum::<f32>().sqrt();
                 keep[e] = norm > 1e-6;
                 tuple.iter_mut().for_each(|v| *v /= norm.max(1e-6));

@@ -14,6 +14,7 @@
 
 use super::model::Fit;
 use super::table::Table;
+use std::borrow::Cow;
 
 /// Lane width of the fused pass (lights per block).
 pub(crate) const LANES: usize = 4;
@@ -28,8 +29,9 @@ pub(crate) fn padded(k: usize) -> usize {
 }
 
 /// The table's window, padded per pixel to a multiple of [`LANES`] lights.
-pub(crate) struct Single {
-    data: Vec<f32>,
+pub(crate) struct Single<'a> {
+    /// The window's tuples, borrowed when K is already a multiple of [`LANES`].
+    data: Cow<'a, [f32]>,
     kp: usize,
     width: usize,
     height: usize,
@@ -187,15 +189,20 @@ mod lanes {
 
 use lanes::V;
 
-impl Single {
-    /// Copy `table`'s window with padded tuples.
-    pub fn new(table: &Table, scale: bool) -> Self {
+impl<'a> Single<'a> {
+    /// The window of `table` with padded tuples (a copy only when K needs padding).
+    pub fn new(table: &'a Table, scale: bool) -> Self {
         let ws = &table.window.stack;
         let (k, kp) = (ws.k, padded(ws.k));
-        let mut data = vec![0.0f32; ws.width * ws.height * kp];
-        for (dst, src) in data.chunks_exact_mut(kp).zip(ws.data.chunks_exact(k)) {
-            dst[..k].copy_from_slice(src);
-        }
+        let data = if k == kp {
+            Cow::Borrowed(&ws.data[..])
+        } else {
+            let mut data = vec![0.0f32; ws.width * ws.height * kp];
+            for (dst, src) in data.chunks_exact_mut(kp).zip(ws.data.chunks_exact(k)) {
+                dst[..k].copy_from_slice(src);
+            }
+            Cow::Owned(data)
+        };
         Single {
             data,
             kp,
