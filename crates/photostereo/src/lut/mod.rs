@@ -14,13 +14,18 @@
 //! 1. **Search, not brute force.** The sphere's tuples lie on a 2-D surface in R^K
 //!    (parameterised by the normal). They are projected onto their top principal
 //!    components (`pca_dims`) and put in a KD-tree ([`index`]); the `candidates`
-//!    nearest entries there are re-ranked on the full K-dimensional cost. The match of
-//!    the previous pixel in the row seeds the tree search (neighbouring normals are
-//!    similar), which makes it fast while keeping it exact.
+//!    nearest entries there are re-ranked on the full K-dimensional cost, and step 2
+//!    refines the best. Most pixels skip the tree (*coherence*, one table): Gauss–Newton
+//!    starts from the previous pixel's solution in the row, extrapolated by its step,
+//!    and is kept when its relative residual √cost/‖t‖ is at most 1.5 × that of the
+//!    last pixel matched through the tree (or 0.3%). Every 16th such pixel is checked
+//!    against the tree (the nearest entry, the search seeded with the entries around the
+//!    solution): when that entry lies more than 1.5 px away and fits better, the pixel
+//!    goes through the tree search.
 //! 2. **Beyond the pixel grid.** The cost ‖t − c·I(x, y)‖² is minimised over the
 //!    continuous sphere position (x, y) on the bilinear interpolation of the sphere
 //!    images by Gauss–Newton ([`model`]; with one table, by a fused pass over the K
-//!    lights per step, [`single`]); the normal is the sphere's analytic normal at that
+//!    lights per step, `single.rs`); the normal is the sphere's analytic normal at that
 //!    point: n = ((x − cx)/R, −(y − cy)/R, √(1 − n_x² − n_y²)).
 //! 3. **Albedo.** With `normalize`, c = ⟨t, I⟩/⟨I, I⟩ is fitted (equivalent to matching
 //!    t/‖t‖ against I/‖I‖); c, the albedo of the target relative to the sphere, is
@@ -28,8 +33,14 @@
 //! 4. **Cast shadows.** A light is dropped when the target is dark there
 //!    (t_i < `shadow_level` · c · peak, peak = the table's brightest sample) while the
 //!    match is clearly lit (p_i > t_i + that level); the match is then redone on the
-//!    remaining lights by an exhaustive coarse-grid search, a pattern descent and
-//!    Gauss–Newton (up to 3 rounds). The number of dropped lights is returned.
+//!    remaining lights (up to 3 rounds): a pattern descent and Gauss–Newton from the
+//!    current match, kept when it passes the coherence test above, else an exhaustive
+//!    coarse-grid search, a pattern descent and Gauss–Newton. Shadows are coherent too:
+//!    next to a pixel with dropped lights, Gauss–Newton starts from its solution with
+//!    the same lights dropped, the dropped set is re-derived at the new match and the
+//!    fit repeated until the set is stable (up to 3 fits); kept when it passes the
+//!    coherence test, else the full procedure runs. The number of dropped lights is
+//!    returned.
 //! 5. **Confidence** = L / (1 + (ρ/ρ₀)²), ρ = RMS residual / RMS target over the lights
 //!    used, ρ₀ = `residual_scale`; L = 1 when at least `min_lit_lights` lights are above
 //!    the dark level, else ≤ 0.25 (too few lit lights: the normal is a guess).
@@ -46,6 +57,12 @@
 //! confidence by 1 / (1 + (σ_w / `weight_scale`)²): the weights are unidentifiable
 //! where the materials trade off against the normal (grazing normals lit by few lights,
 //! no highlight) or where the normal lies beyond the table's rim.
+//!
+//! **Speed** (`photostereo bench --only lookup`: 1024² shiny vase, 606k mask pixels,
+//! K = 16, table of a radius-150 sphere, 2 cores): about 9 Mpx/s, 0.13 s of CPU per
+//! run; scikit-learn's `KDTree` (nearest entry only) does 0.42 Mpx/s on comparable data
+//! (`benches/sklearn_lookup.py`). The workers write the output images row by row
+//! (`planes.rs`).
 //!
 //! The table itself (building, file format) is in [`table`] and [`format`].
 
