@@ -56,6 +56,31 @@ fn relative_to(norm: f32, cost: f32) -> f32 {
     }
 }
 
+/// The coarse grid of the exhaustive searches: positions on table 0's grid (about
+/// [`COARSE_POINTS`] inside the search disc), the tables' tuples there, and the spacing.
+fn coarse_grid(model: &Model<'_>) -> (Vec<(f64, f64)>, [Vec<f32>; 2], f64) {
+    let t0 = &model.tables[0];
+    let area = std::f64::consts::PI * t0.search_radius().powi(2);
+    let coarse_step = (area / COARSE_POINTS as f64).sqrt().max(1.0).floor();
+    let mut s = Scratch::new(model.k);
+    let (mut coarse_pos, mut coarse_basis) = (Vec::new(), [Vec::new(), Vec::new()]);
+    let (cgx, cgy) = t0.to_grid(t0.circle.cx, t0.circle.cy);
+    let steps = (t0.search_radius() / coarse_step).ceil() as i64;
+    for i in -steps..=steps {
+        for j in -steps..=steps {
+            let (gx, gy) = (cgx + j as f64 * coarse_step, cgy + i as f64 * coarse_step);
+            if ((gx - cgx).powi(2) + (gy - cgy).powi(2)).sqrt() > t0.search_radius() {
+                continue;
+            }
+            model.sample(gx, gy, &mut s, false);
+            coarse_pos.push((gx, gy));
+            coarse_basis[0].extend_from_slice(&s.basis[0]);
+            coarse_basis[1].extend_from_slice(&s.basis[1]);
+        }
+    }
+    (coarse_pos, coarse_basis, coarse_step)
+}
+
 /// Buffers of one worker: the target tuple and weights (padded to the fast path's lane
 /// width, zeros beyond K), the generic model's scratch and the fast path's buffers.
 pub(crate) struct Work {
@@ -143,24 +168,7 @@ impl<'a> Solver<'a> {
             };
             Index::build(&ranked, k, &keep, dims)
         });
-        let area = std::f64::consts::PI * t0.search_radius().powi(2);
-        let coarse_step = (area / COARSE_POINTS as f64).sqrt().max(1.0).floor();
-        let mut s = Scratch::new(k);
-        let (mut coarse_pos, mut coarse_basis) = (Vec::new(), [Vec::new(), Vec::new()]);
-        let (cgx, cgy) = t0.to_grid(t0.circle.cx, t0.circle.cy);
-        let steps = (t0.search_radius() / coarse_step).ceil() as i64;
-        for i in -steps..=steps {
-            for j in -steps..=steps {
-                let (gx, gy) = (cgx + j as f64 * coarse_step, cgy + i as f64 * coarse_step);
-                if ((gx - cgx).powi(2) + (gy - cgy).powi(2)).sqrt() > t0.search_radius() {
-                    continue;
-                }
-                model.sample(gx, gy, &mut s, false);
-                coarse_pos.push((gx, gy));
-                coarse_basis[0].extend_from_slice(&s.basis[0]);
-                coarse_basis[1].extend_from_slice(&s.basis[1]);
-            }
-        }
+        let (coarse_pos, coarse_basis, coarse_step) = coarse_grid(&model);
         let peaks = [t0.peak(), model.tables.get(1).map_or(0.0, |t| t.peak())];
         let single = (!model.is_mix()).then(|| Single::new(t0, opts.normalize));
         let mut ones = vec![0.0; single::padded(k)];

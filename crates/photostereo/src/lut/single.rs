@@ -189,6 +189,31 @@ mod lanes {
 
 use lanes::V;
 
+/// Second pass of a scaled fit: c = max(⟨t,I⟩/⟨I,I⟩, 0) from the sums `ti`, `ii`,
+/// then the residual terms of t − c·I (interpolated tuple and gradients in `b`) added to
+/// `acc`. Returns c.
+#[inline(always)]
+fn scaled_residuals(t: &[f32], w: &[f32], b: &Buf, ti: f32, ii: f32, acc: &mut [V; 3]) -> f32 {
+    let c = if ii > 0.0 { (ti / ii).max(0.0) } else { 0.0 };
+    let cv = V::splat(c);
+    for o in (0..t.len()).step_by(LANES) {
+        let r = V::load(t, o).sub(V::load(&b.v, o).mul(cv));
+        let (dx, dy) = (V::load(&b.dx, o), V::load(&b.dy, o));
+        accumulate(acc, r, V::load(w, o), dx, dy);
+    }
+    c
+}
+
+/// Add the weighted residual terms (Σ w r², Σ w r ∂I/∂gx, Σ w r ∂I/∂gy) of one lane
+/// block to `acc`.
+#[inline(always)]
+fn accumulate(acc: &mut [V; 3], r: V, w: V, dx: V, dy: V) {
+    let wr = w.mul(r);
+    acc[0] = acc[0].add(wr.mul(r));
+    acc[1] = acc[1].add(wr.mul(dx));
+    acc[2] = acc[2].add(wr.mul(dy));
+}
+
 impl<'a> Single<'a> {
     /// The window of `table` with padded tuples (a copy only when K needs padding).
     pub fn new(table: &'a Table, scale: bool) -> Self {
@@ -255,15 +280,17 @@ impl<'a> Single<'a> {
         // positions are ≥ 0 inside the window; `as` saturates (floor for x ≥ 0)
         let c0 = (gx.max(0.0) as usize).min(self.width - 2);
         let r0 = (gy.max(0.0) as usize).min(self.height - 2);
-        let (a, bb) = (V::splat((gx - c0 as f64) as f32), (gy - r0 as f64) as f32);
-        let bv = V::splat(bb);
+        let (a, bv) = (
+            V::splat((gx - c0 as f64) as f32),
+            V::splat((gy - r0 as f64) as f32),
+        );
         let top = (r0 * self.width + c0) * kp;
         let bot = self.width * kp;
         let d = &self.data[top..top + bot + 2 * kp];
         let (t, w) = (&t[..kp], &w[..kp]);
         let z = V::zero();
         let (mut ti, mut ii, mut h11, mut h12, mut h22) = (z, z, z, z, z);
-        let (mut cost, mut g1, mut g2) = (z, z, z);
+        let mut res = [z; 3];
         for o in (0..kp).step_by(LANES) {
             let (x00, x01) = (V::load(d, o), V::load(d, kp + o));
             let (x10, x11) = (V::load(d, bot + o), V::load(d, bot + kp + o));
@@ -285,35 +312,23 @@ impl<'a> Single<'a> {
                 ti = ti.add(wv.mul(tl));
                 ii = ii.add(wv.mul(v));
             } else {
-                let wr = wl.mul(tl.sub(v));
-                cost = cost.add(wr.mul(tl.sub(v)));
-                g1 = g1.add(wr.mul(dx));
-                g2 = g2.add(wr.mul(dy));
+                accumulate(&mut res, tl.sub(v), wl, dx, dy);
             }
         }
-        let mut c = 1.0f32;
-        if SCALE {
-            let (ti, ii) = (ti.sum(), ii.sum());
-            c = if ii > 0.0 { (ti / ii).max(0.0) } else { 0.0 };
-            let cv = V::splat(c);
-            for o in (0..kp).step_by(LANES) {
-                let (tl, wl) = (V::load(t, o), V::load(w, o));
-                let r = tl.sub(V::load(&b.v, o).mul(cv));
-                let wr = wl.mul(r);
-                cost = cost.add(wr.mul(r));
-                g1 = g1.add(wr.mul(V::load(&b.dx, o)));
-                g2 = g2.add(wr.mul(V::load(&b.dy, o)));
-            }
-        }
+        let c = if SCALE {
+            scaled_residuals(t, w, b, ti.sum(), ii.sum(), &mut res)
+        } else {
+            1.0
+        };
         let (c64, c2) = (c as f64, (c * c) as f64);
         let sum = |x: V| x.sum() as f64;
         Point {
             gx,
             gy,
             c,
-            cost: cost.sum(),
+            cost: res[0].sum(),
             h: [c2 * sum(h11), c2 * sum(h12), c2 * sum(h22)],
-            g: [c64 * sum(g1), c64 * sum(g2)],
+            g: [c64 * sum(res[1]), c64 * sum(res[2])],
         }
     }
 
