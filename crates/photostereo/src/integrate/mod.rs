@@ -294,7 +294,8 @@ pub fn integrate_gradients_with_progress(
             "the solver produced non-finite depth; check the gradients for huge values",
         )
     };
-    let residual = support::edge_residual(&z, &p, &q, mask) as f32;
+    let measured = support::edge_residual(&z, &p, &q, mask);
+    let residual = measured.rms as f32;
     let (depth, parts) = match &comps {
         Some(c) => {
             if !support::all_finite_par(&z) {
@@ -302,7 +303,10 @@ pub fn integrate_gradients_with_progress(
             }
             (support::center_components(&z, c, w, h), c.count)
         }
-        None => (support::center_full(z, w, h).ok_or_else(non_finite)?, 1),
+        None => (
+            support::center_full(z, w, h, measured.depth_sum).ok_or_else(non_finite)?,
+            1,
+        ),
     };
     Ok(Output {
         depth,

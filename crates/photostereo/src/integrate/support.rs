@@ -105,11 +105,20 @@ pub fn sanitize<'a>(
     (Cow::Owned(pp), Cow::Owned(qq), bp + bq - both)
 }
 
-/// RMS over the in-mask edges of z_j − z_i − g_e, with the trapezoidal targets of the
-/// module documentation.
-pub fn edge_residual(z: &[f32], p: &[f32], q: &[f32], mask: &Mask) -> f64 {
+/// What one pass over the solved depth measures.
+#[derive(Clone, Copy, Debug)]
+pub struct EdgeResidual {
+    /// RMS over the in-mask edges of z_j − z_i − g_e (trapezoidal targets of the module
+    /// documentation), pixels.
+    pub rms: f64,
+    /// Σ z over the mask (for the mean offset, without another pass over z).
+    pub depth_sum: f64,
+}
+
+/// The edge residual and the depth sum over the mask, in one pass.
+pub fn edge_residual(z: &[f32], p: &[f32], q: &[f32], mask: &Mask) -> EdgeResidual {
     let (w, h) = (mask.width, mask.height);
-    let (sum, n) = (0..h)
+    let (sum, n, depth_sum) = (0..h)
         .into_par_iter()
         .map_init(
             || vec![0.0f32; w],
@@ -123,6 +132,7 @@ pub fn edge_residual(z: &[f32], p: &[f32], q: &[f32], mask: &Mask) -> f64 {
                 }
                 // Whole rows inside the mask: branch-free loops over zipped slices.
                 let (zr, pr) = (&z[a.clone()], &p[a.clone()]);
+                let depth_sum = sum_row(zr);
                 let (z1, p1) = (
                     zr[1..].iter().zip(&zr[..w - 1]),
                     pr[1..].iter().zip(&pr[..w - 1]),
@@ -142,14 +152,13 @@ pub fn edge_residual(z: &[f32], p: &[f32], q: &[f32], mask: &Mask) -> f64 {
                     sum += sum_squares(e);
                     n += w;
                 }
-                (sum, n)
+                (sum, n, depth_sum)
             },
         )
-        .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-    if n == 0 {
-        0.0
-    } else {
-        (sum / n as f64).sqrt()
+        .reduce(|| (0.0, 0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+    EdgeResidual {
+        rms: if n == 0 { 0.0 } else { (sum / n as f64).sqrt() },
+        depth_sum,
     }
 }
 
@@ -176,15 +185,23 @@ fn sum_squares(values: &[f32]) -> f64 {
     lane_sum(values, |v| v * v)
 }
 
-/// The residual terms of row r (edges to the right and down) where the mask is partial.
-fn masked_row_residual(z: &[f32], p: &[f32], q: &[f32], mask: &Mask, r: usize) -> (f64, usize) {
+/// The residual terms of row r (edges to the right and down) where the mask is partial,
+/// their count, and Σ z over the row's mask pixels.
+fn masked_row_residual(
+    z: &[f32],
+    p: &[f32],
+    q: &[f32],
+    mask: &Mask,
+    r: usize,
+) -> (f64, usize, f64) {
     let (w, h) = (mask.width, mask.height);
-    let (mut sum, mut n) = (0.0f64, 0usize);
+    let (mut sum, mut n, mut depth_sum) = (0.0f64, 0usize, 0.0f64);
     for c in 0..w {
         let i = r * w + c;
         if !mask.data[i] {
             continue;
         }
+        depth_sum += z[i] as f64;
         if c + 1 < w && mask.data[i + 1] {
             let e = z[i + 1] as f64 - z[i] as f64 - 0.5 * (p[i] as f64 + p[i + 1] as f64);
             sum += e * e;
@@ -196,7 +213,7 @@ fn masked_row_residual(z: &[f32], p: &[f32], q: &[f32], mask: &Mask, r: usize) -
             n += 1;
         }
     }
-    (sum, n)
+    (sum, n, depth_sum)
 }
 
 fn sum_row(values: &[f32]) -> f64 {
@@ -220,15 +237,18 @@ pub fn all_finite_par(values: &[f32]) -> bool {
         .all(|c| c.iter().fold(true, |a, v| a & v.is_finite()))
 }
 
-/// Depth of a mask that covers the whole grid: shift `z` to mean 0 in place. `None`
-/// when `z` holds a non-finite value.
-pub fn center_full(mut z: Vec<f32>, w: usize, h: usize) -> Option<DepthMap> {
-    let sum: f64 = z.par_chunks(w.max(1)).map(sum_row).sum();
+/// Depth of a mask that covers the whole grid, given Σ z: shift `z` to mean 0 in place.
+/// `None` when `z` holds a non-finite value (then the sum is not finite). A mean below
+/// 1e-6 px, which the Fourier solvers leave by construction (their (0, 0) coefficient is
+/// 0), is left alone: it is below the `f32` resolution of depths beyond 8 px.
+pub fn center_full(mut z: Vec<f32>, w: usize, h: usize, sum: f64) -> Option<DepthMap> {
     if !sum.is_finite() {
         return None;
     }
     let mean = (sum / z.len().max(1) as f64) as f32;
-    z.par_iter_mut().for_each(|v| *v -= mean);
+    if mean.abs() >= 1e-6 {
+        z.par_iter_mut().for_each(|v| *v -= mean);
+    }
     Some(Image {
         width: w,
         height: h,
