@@ -263,10 +263,10 @@ fn append_shifted(nodes: &mut Vec<Node>, sub: Vec<Node>) {
     }));
 }
 
-/// Split `ids` at the median of their widest dimension (measured on at most ~256
+/// Split `ids` at the median of their widest dimension (measured on at most ~64
 /// points): returns (dimension, value, index of the median); `ids` is partitioned.
 fn split(ids: &mut [u32], proj: &[f32], d: usize) -> (usize, f32, usize) {
-    let stride = (ids.len() / 256).max(1);
+    let stride = (ids.len() / 32).max(1);
     let mut dim = 0;
     let mut widest = -1.0f32;
     for j in 0..d {
