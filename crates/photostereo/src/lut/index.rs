@@ -229,13 +229,7 @@ fn build_par(ids: &mut [u32], offset: usize, proj: &[f32], d: usize, nodes: &mut
     if ids.len() <= PAR_POINTS {
         return build_range(ids, offset, proj, d, nodes);
     }
-    let me = nodes.len();
-    let (dim, value, mid) = split(ids, proj, d);
-    nodes.push(Node::Split {
-        dim: dim as u16,
-        value,
-        right: 0,
-    });
+    let (me, mid) = push_split(ids, proj, d, nodes);
     let (left, right) = ids.split_at_mut(mid);
     let (mut l, mut r) = (Vec::new(), Vec::new());
     rayon::join(
@@ -243,11 +237,29 @@ fn build_par(ids: &mut [u32], offset: usize, proj: &[f32], d: usize, nodes: &mut
         || build_par(right, offset + mid, proj, d, &mut r),
     );
     append_shifted(nodes, l);
-    let right_index = nodes.len() as u32;
-    if let Node::Split { right: rr, .. } = &mut nodes[me] {
-        *rr = right_index;
-    }
+    link_right(nodes, me);
     append_shifted(nodes, r);
+}
+
+/// Split `ids` at the median of their widest axis and push the split node (its right
+/// child still unset); returns the node's index and the split position.
+fn push_split(ids: &mut [u32], proj: &[f32], d: usize, nodes: &mut Vec<Node>) -> (usize, usize) {
+    let me = nodes.len();
+    let (dim, value, mid) = split(ids, proj, d);
+    nodes.push(Node::Split {
+        dim: dim as u16,
+        value,
+        right: 0,
+    });
+    (me, mid)
+}
+
+/// Point split node `me` at the next node to be pushed (its right subtree).
+fn link_right(nodes: &mut [Node], me: usize) {
+    let right_index = nodes.len() as u32;
+    if let Node::Split { right, .. } = &mut nodes[me] {
+        *right = right_index;
+    }
 }
 
 /// Append a subtree built on its own (node indices from 0) to `nodes`.
@@ -308,7 +320,6 @@ fn sortable(v: f32) -> u32 {
 }
 
 fn build_range(ids: &mut [u32], offset: usize, proj: &[f32], d: usize, nodes: &mut Vec<Node>) {
-    let me = nodes.len();
     if ids.len() <= LEAF {
         nodes.push(Node::Leaf {
             start: offset as u32,
@@ -316,18 +327,10 @@ fn build_range(ids: &mut [u32], offset: usize, proj: &[f32], d: usize, nodes: &m
         });
         return;
     }
-    let (dim, value, mid) = split(ids, proj, d);
-    nodes.push(Node::Split {
-        dim: dim as u16,
-        value,
-        right: 0,
-    });
+    let (me, mid) = push_split(ids, proj, d, nodes);
     let (left, right) = ids.split_at_mut(mid);
     build_range(left, offset, proj, d, nodes);
-    let right_index = nodes.len() as u32;
-    if let Node::Split { right: r, .. } = &mut nodes[me] {
-        *r = right_index;
-    }
+    link_right(nodes, me);
     build_range(right, offset + mid, proj, d, nodes);
 }
 

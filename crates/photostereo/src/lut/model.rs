@@ -225,33 +225,26 @@ impl<'a> Model<'a> {
         let k = self.k;
         // model p = Σ c_j B_j and its Jacobian columns, gathered into pred / jac
         let (jx, jy) = s.jac.split_at_mut(k);
-        let (gx0, gy0) = s.grad[0].split_at(k);
-        for ((((p, x), y), b), (dx, dy)) in s
-            .pred
-            .iter_mut()
-            .zip(jx.iter_mut())
-            .zip(jy.iter_mut())
-            .zip(&s.basis[0])
-            .zip(gx0.iter().zip(gy0))
-        {
-            *p = coef[0] * b;
-            *x = coef[0] * dx;
-            *y = coef[0] * dy;
-        }
-        if self.is_mix() {
-            let (gx1, gy1) = s.grad[1].split_at(k);
+        let used = if self.is_mix() { 2 } else { 1 };
+        s.pred.fill(0.0);
+        jx.fill(0.0);
+        jy.fill(0.0);
+        for (j, &c) in coef.iter().enumerate().take(used) {
+            let (gx, gy) = s.grad[j].split_at(k);
             for ((((p, x), y), b), (dx, dy)) in s
                 .pred
                 .iter_mut()
                 .zip(jx.iter_mut())
                 .zip(jy.iter_mut())
-                .zip(&s.basis[1])
-                .zip(gx1.iter().zip(gy1))
+                .zip(&s.basis[j])
+                .zip(gx.iter().zip(gy))
             {
-                *p += coef[1] * b;
-                *x += coef[1] * dx;
-                *y += coef[1] * dy;
+                *p += c * b;
+                *x += c * dx;
+                *y += c * dy;
             }
+        }
+        if self.is_mix() {
             project_out(&s.basis, coef, w, jx, jy);
         }
         let (p, t, jx, jy) = (&s.pred[..k], &t[..k], &jx[..k], &jy[..k]);
