@@ -150,16 +150,7 @@ fn lookup_job() -> anyhow::Result<Job> {
 
 /// Gradients of a sphere cap covering the grid (radius 0.8 × width).
 fn sphere_gradients(w: usize, h: usize) -> (GrayImage, GrayImage) {
-    let rad = 0.8 * w as f64;
-    let grad = |r: usize, c: usize| {
-        let (x, y) = pixel_to_xy(r, c, w, h);
-        let z = (rad * rad - x * x - y * y).max(1.0).sqrt();
-        ((-x / z) as f32, (-y / z) as f32)
-    };
-    (
-        GrayImage::from_fn(w, h, |r, c| grad(r, c).0),
-        GrayImage::from_fn(w, h, |r, c| grad(r, c).1),
-    )
+    photostereo::synth::sphere_cap_gradients(w, h, 0.8 * w as f64)
 }
 
 fn integration_job(size: usize, method: Method, disk: bool) -> anyhow::Result<Job> {

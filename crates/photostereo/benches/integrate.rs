@@ -9,16 +9,7 @@ use photostereo::{GrayImage, Mask};
 use std::time::Duration;
 
 fn sphere_gradients(n: usize) -> (GrayImage, GrayImage) {
-    let rad = 0.8 * n as f64;
-    let grad = |r: usize, c: usize| {
-        let (x, y) = pixel_to_xy(r, c, n, n);
-        let z = (rad * rad - x * x - y * y).max(1.0).sqrt();
-        ((-x / z) as f32, (-y / z) as f32)
-    };
-    (
-        GrayImage::from_fn(n, n, |r, c| grad(r, c).0),
-        GrayImage::from_fn(n, n, |r, c| grad(r, c).1),
-    )
+    photostereo::synth::sphere_cap_gradients(n, n, 0.8 * n as f64)
 }
 
 fn fourier(c: &mut Criterion) {

@@ -127,6 +127,22 @@ pub fn default_lights(k: usize) -> Lights {
     Lights::from_directions(directions)
 }
 
+/// Analytic gradients (p, q) = (−x/z, −y/z) of the sphere x² + y² + z² = radius² (pixels,
+/// centred on the W × H grid, z clamped to ≥ 1 where the grid leaves the sphere): the
+/// smooth, non-periodic field the integration benchmarks use (radius 0.8 W covers the
+/// grid).
+pub fn sphere_cap_gradients(width: usize, height: usize, radius: f64) -> (GrayImage, GrayImage) {
+    let grad = |r: usize, c: usize| {
+        let (x, y) = crate::image::pixel_to_xy(r, c, width, height);
+        let z = (radius * radius - x * x - y * y).max(1.0).sqrt();
+        ((-x / z) as f32, (-y / z) as f32)
+    };
+    (
+        GrayImage::from_fn(width, height, |r, c| grad(r, c).0),
+        GrayImage::from_fn(width, height, |r, c| grad(r, c).1),
+    )
+}
+
 /// Render a scene (see the module docs for the image formation).
 pub fn render(opts: &SceneOptions) -> Result<Scene> {
     render_with_progress(opts, &NoProgress)
@@ -221,4 +237,24 @@ fn validate(opts: &SceneOptions) -> Result<()> {
     }
     opts.shape.validate()?;
     opts.material.validate()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_cap_gradients_are_those_of_the_sphere_and_convex() {
+        let (w, h, radius) = (8usize, 6usize, 10.0f64);
+        let (p, q) = sphere_cap_gradients(w, h, radius);
+        for r in 0..h {
+            for c in 0..w {
+                let (x, y) = crate::image::pixel_to_xy(r, c, w, h);
+                let z = (radius * radius - x * x - y * y).sqrt();
+                // z = sqrt(R² − x² − y²): ∂z/∂x = −x/z (pointing away from the centre: convex).
+                assert!((*p.get(r, c) as f64 + x / z).abs() < 1e-6);
+                assert!((*q.get(r, c) as f64 + y / z).abs() < 1e-6);
+            }
+        }
+    }
 }
