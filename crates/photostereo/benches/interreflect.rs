@@ -9,7 +9,7 @@
 //!   measured by criterion.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use photostereo::image::{dot3, gradient_to_normal, pixel_to_xy, ImageStack, Mask};
+use photostereo::image::{ImageStack, Mask};
 use photostereo::interreflect::{
     render_with_interreflections, solve, Kernel, KernelOptions, Model, NikOptions,
     RadiosityOptions, Visibility,
@@ -19,25 +19,14 @@ use photostereo::synth::{default_lights, Material, SceneOptions, Shape};
 use photostereo::{DepthMap, GrayImage, NormalMap};
 use std::time::{Duration, Instant};
 
+// The analytic height fields of the interreflection tests.
+#[path = "../tests/interreflect_common/mod.rs"]
+mod common;
+
 /// A ring trough around a central hill (many hidden facet pairs).
 fn trough(n: usize) -> (DepthMap, NormalMap) {
-    let (r0, sigma, amp) = (n as f64 / 4.0, n as f64 / 12.0, n as f64 / 8.0);
-    let f = |x: f64, y: f64| {
-        let rho = (x * x + y * y).sqrt().max(1e-9);
-        let e = (-(rho - r0).powi(2) / (2.0 * sigma * sigma)).exp();
-        let dz = amp * e * (rho - r0) / (sigma * sigma);
-        (-amp * e, dz * x / rho, dz * y / rho)
-    };
-    let z = DepthMap::from_fn(n, n, |r, c| {
-        let (x, y) = pixel_to_xy(r, c, n, n);
-        f(x, y).0 as f32
-    });
-    let nm = NormalMap::from_fn(n, n, |r, c| {
-        let (x, y) = pixel_to_xy(r, c, n, n);
-        let (_, p, q) = f(x, y);
-        gradient_to_normal(p as f32, q as f32)
-    });
-    (z, nm)
+    let nf = n as f64;
+    common::sample(n, n, common::trough(nf / 4.0, nf / 12.0, nf / 8.0))
 }
 
 fn bounced(z: &DepthMap, n: &NormalMap, visibility: Visibility) -> ImageStack {
@@ -49,12 +38,7 @@ fn bounced(z: &DepthMap, n: &NormalMap, visibility: Visibility) -> ImageStack {
     };
     let model = Model::new(z, n, &mask, &opts, &NoProgress).unwrap();
     let lights = [[0.0f32, 0.0, 1.0], [0.5, 0.0, 0.866], [-0.3, 0.4, 0.866]];
-    let mut direct = ImageStack::zeros(z.width, z.height, lights.len());
-    for (p, nn) in n.data.iter().enumerate() {
-        for (k, l) in lights.iter().enumerate() {
-            direct.data[p * lights.len() + k] = 0.8 * dot3(*nn, *l).max(0.0);
-        }
-    }
+    let direct = common::direct(n, 0.8, &lights);
     model
         .bounce(&direct, &GrayImage::filled(z.width, z.height, 0.8))
         .unwrap()
