@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use photostereo::image::{ImageStack, Lights};
+use photostereo::io;
 use photostereo::synth::{self, Material, SceneOptions, Shape, ShapeKind};
-use photostereo::{io, Mask};
 
 const SIZE: usize = 96;
 
@@ -31,10 +31,18 @@ fn scene(material: Material) -> SceneOptions {
     }
 }
 
-/// Write a rendered scene as a dataset with ground truth; lights with intensities
-/// `gains` (the images are multiplied by them, as a camera would see).
-fn write_scene(dir: &Path, opts: &SceneOptions, gains: Option<&[f32]>, mask: bool) -> Mask {
-    let s = synth::render(opts).unwrap();
+/// Render `material` (see [`scene`]) and write it as the dataset `tmp(name)` with its mask
+/// and ground truth; lights with intensities `gains` (the images are multiplied by them,
+/// as a camera would see). Returns the scene options, the dataset and an empty output
+/// directory `tmp(name-out)`.
+fn dataset(
+    name: &str,
+    material: Material,
+    gains: Option<&[f32]>,
+) -> (SceneOptions, PathBuf, PathBuf) {
+    let opts = scene(material);
+    let dir = tmp(name);
+    let s = synth::render(&opts).unwrap();
     let mut stack: ImageStack = s.stack.clone();
     let mut lights: Lights = s.lights.clone();
     if let Some(g) = gains {
@@ -45,10 +53,10 @@ fn write_scene(dir: &Path, opts: &SceneOptions, gains: Option<&[f32]>, mask: boo
         }
         lights.intensities = g.to_vec();
     }
-    io::write_dataset(dir, &stack, &lights, mask.then_some(&s.mask), 16).unwrap();
+    io::write_dataset(&dir, &stack, &lights, Some(&s.mask), 16).unwrap();
     io::write_normals(&dir.join("normal_gt.npy"), &s.normals).unwrap();
     io::write_gray_npy(&dir.join("depth_gt.npy"), &s.depth).unwrap();
-    s.mask
+    (opts, dir, tmp(&format!("{name}-out")))
 }
 
 fn run(args: &[&str]) -> (bool, String) {
@@ -62,6 +70,19 @@ fn run(args: &[&str]) -> (bool, String) {
         out.status.success(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
+}
+
+/// `photostereo run FLAGS... DATA -o OUT`: success and stderr.
+fn run_on(flags: &[&str], data: &Path, out: &Path) -> (bool, String) {
+    let mut args = flags.to_vec();
+    args.extend([data.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    run(&args)
+}
+
+/// [`run_on`], which must succeed.
+fn run_ok(flags: &[&str], data: &Path, out: &Path) {
+    let (ok, err) = run_on(flags, data, out);
+    assert!(ok, "{err}");
 }
 
 fn run_json(out: &Path) -> serde_json::Value {
@@ -94,20 +115,11 @@ fn mean_error(out: &Path) -> f64 {
 
 #[test]
 fn lambertian_with_every_optional_file_and_without_each() {
-    let opts = scene(Material::lambertian(0.9));
     let gains = [
         0.5, 0.7, 0.9, 1.0, 0.6, 0.8, 1.0, 0.55, 0.75, 0.95, 0.65, 0.85,
     ];
-    let data = tmp("lambertian");
-    write_scene(&data, &opts, Some(&gains), true);
-    let out = tmp("lambertian-out");
-    let (ok, err) = run(&[
-        "--lambertian",
-        data.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(ok, "{err}");
+    let (_, data, out) = dataset("lambertian", Material::lambertian(0.9), Some(&gains));
+    run_ok(&["--lambertian"], &data, &out);
     check_products(&out);
     let full = mean_error(&out);
     let json = run_json(&out);
@@ -122,24 +134,12 @@ fn lambertian_with_every_optional_file_and_without_each() {
 
     // without filenames.txt: images found by name, same result
     std::fs::remove_file(data.join("filenames.txt")).unwrap();
-    let (ok, err) = run(&[
-        "--lambertian",
-        data.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(ok, "{err}");
+    run_ok(&["--lambertian"], &data, &out);
     assert!((mean_error(&out) - full).abs() < 1e-6);
 
     // without light_intensities.txt the unequal lights bias the normals: clearly worse
     std::fs::remove_file(data.join("light_intensities.txt")).unwrap();
-    let (ok, err) = run(&[
-        "--lambertian",
-        data.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(ok, "{err}");
+    run_ok(&["--lambertian"], &data, &out);
     let biased = mean_error(&out);
     println!("without light_intensities.txt: {biased:.3}°");
     assert!(
@@ -149,37 +149,21 @@ fn lambertian_with_every_optional_file_and_without_each() {
 
     // without mask.png: the whole rectangle, DCT integration, still a report
     std::fs::remove_file(data.join("mask.png")).unwrap();
-    let (ok, err) = run(&[
-        "--lambertian",
-        data.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(ok, "{err}");
+    run_ok(&["--lambertian"], &data, &out);
     check_products(&out);
     assert_eq!(run_json(&out)["integrator"], "dct");
 }
 
 #[test]
 fn lookup_table_from_a_sphere_of_the_same_material() {
-    let opts = scene(Material::shiny_plastic());
-    let data = tmp("shiny");
-    write_scene(&data, &opts, None, true);
+    let (opts, data, out) = dataset("shiny", Material::shiny_plastic(), None);
     let sphere = tmp("shiny-sphere");
     let s = synth::render_calibration_sphere(&opts, 40.0).unwrap();
     io::write_dataset(&sphere, &s.stack, &s.lights, None, 16).unwrap();
     // the lookup needs no light directions
     std::fs::remove_file(data.join("light_directions.txt")).unwrap();
     std::fs::remove_file(sphere.join("light_directions.txt")).unwrap();
-    let out = tmp("shiny-out");
-    let (ok, err) = run(&[
-        "--sphere",
-        sphere.to_str().unwrap(),
-        data.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(ok, "{err}");
+    run_ok(&["--sphere", sphere.to_str().unwrap()], &data, &out);
     check_products(&out);
     assert!(out.join("confidence.npy").is_file() && out.join("sphere_overlay.png").is_file());
     let e = mean_error(&out);
@@ -193,44 +177,28 @@ fn lookup_table_from_a_sphere_of_the_same_material() {
 
 #[test]
 fn bad_invocations_say_what_to_do_and_lights_come_from_a_file() {
-    let opts = scene(Material::lambertian(0.9));
-    let data = tmp("bad");
-    write_scene(&data, &opts, None, true);
-    let out = tmp("bad-out");
-    let (ok, err) = run(&[data.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let (_, data, out) = dataset("bad", Material::lambertian(0.9), None);
+    let (ok, err) = run_on(&[], &data, &out);
     assert!(
         !ok && err.contains("--sphere") && err.contains("--lambertian"),
         "{err}"
     );
     let lights = out.with_extension("lights.txt");
     std::fs::rename(data.join("light_directions.txt"), &lights).unwrap();
-    let (ok, err) = run(&[
-        "--lambertian",
-        data.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let (ok, err) = run_on(&["--lambertian"], &data, &out);
     assert!(!ok && err.contains("--lights"), "{err}");
     assert!(
         !out.join("report.html").exists(),
         "no partial output after an error"
     );
     // the same directions from a file elsewhere
-    let (ok, err) = run(&[
-        "--lambertian",
-        "--lights",
-        lights.to_str().unwrap(),
-        data.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(ok, "{err}");
+    run_ok(
+        &["--lambertian", "--lights", lights.to_str().unwrap()],
+        &data,
+        &out,
+    );
     assert!(mean_error(&out) < 0.05);
-    let (ok, err) = run(&[
-        "--lambertian",
-        "/nonexistent/dir",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let missing = Path::new("/nonexistent/dir");
+    let (ok, err) = run_on(&["--lambertian"], missing, &out);
     assert!(!ok && err.contains("/nonexistent/dir"), "{err}");
 }

@@ -29,12 +29,63 @@ fn load(dir: &Path) -> Result<io::Dataset, Error> {
     io::load_dataset(dir, &LoadOptions::default())
 }
 
+/// The good dataset `name`, changed by `edit`, loaded with `opts`: the error it must give.
+fn error_after_with(name: &str, opts: &LoadOptions, edit: impl FnOnce(&Path)) -> Error {
+    let dir = good_dataset(name);
+    edit(&dir);
+    io::load_dataset(&dir, opts).unwrap_err()
+}
+
+/// [`error_after_with`] with the default load options.
+fn error_after(name: &str, edit: impl FnOnce(&Path)) -> Error {
+    error_after_with(name, &LoadOptions::default(), edit)
+}
+
+/// Replace (or create) the text file `file` in `dir`.
+fn write(dir: &Path, file: &str, text: &str) {
+    std::fs::write(dir.join(file), text).unwrap();
+}
+
+fn remove(dir: &Path, file: &str) {
+    std::fs::remove_file(dir.join(file)).unwrap();
+}
+
+/// Save an 8-bit grey image as `file` in `dir`.
+fn save_gray(dir: &Path, file: &str, img: image::GrayImage) {
+    img.save(dir.join(file)).unwrap();
+}
+
 /// The error message must mention `needle`.
 fn assert_mentions(err: &Error, needle: &str) {
     let msg = err.to_string();
     assert!(
         msg.contains(needle),
         "message `{msg}` does not mention `{needle}`"
+    );
+}
+
+/// The error is `LightCount` with these counts and names `file`.
+fn assert_light_count(err: &Error, expected: usize, found: usize, file: &str) {
+    assert!(
+        matches!(err, Error::LightCount { expected: e, found: f, .. } if (*e, *f) == (expected, found)),
+        "{err}"
+    );
+    assert_mentions(err, file);
+}
+
+/// The error is `Decode` for a path ending in `file`.
+fn assert_decode_of(err: &Error, file: &str) {
+    assert!(
+        matches!(err, Error::Decode { path, .. } if path.ends_with(file)),
+        "{err}"
+    );
+}
+
+/// The error is `NotFound` for a path ending in `file`.
+fn assert_not_found(err: &Error, file: &str) {
+    assert!(
+        matches!(err, Error::NotFound { path, .. } if path.ends_with(file)),
+        "{err}"
     );
 }
 
@@ -58,7 +109,7 @@ fn missing_directory() {
 #[test]
 fn no_images() {
     let dir = tmp_dir("noimages");
-    std::fs::write(dir.join("light_directions.txt"), "0 0 1\n").unwrap();
+    write(&dir, "light_directions.txt", "0 0 1\n");
     std::fs::copy(
         good_dataset("noimages_src").join("mask.png"),
         dir.join("mask.png"),
@@ -71,11 +122,9 @@ fn no_images() {
 
 #[test]
 fn images_of_different_sizes_name_both_files() {
-    let dir = good_dataset("sizes");
-    image::GrayImage::new(5, 3)
-        .save(dir.join("002.png"))
-        .unwrap();
-    let err = load(&dir).unwrap_err();
+    let err = error_after("sizes", |d| {
+        save_gray(d, "002.png", image::GrayImage::new(5, 3))
+    });
     assert!(
         matches!(
             err,
@@ -93,95 +142,62 @@ fn images_of_different_sizes_name_both_files() {
 
 #[test]
 fn mixed_bit_depths_are_refused() {
-    let dir = good_dataset("depths");
-    image::ImageBuffer::<image::Luma<u16>, _>::new(4, 3)
-        .save(dir.join("003.png"))
-        .unwrap();
-    let err = load(&dir).unwrap_err();
+    let err = error_after("depths", |d| {
+        let img = image::ImageBuffer::<image::Luma<u16>, _>::new(4, 3);
+        img.save(d.join("003.png")).unwrap();
+    });
     assert_mentions(&err, "003.png");
     assert_mentions(&err, "16-bit");
 }
 
 #[test]
 fn wrong_number_of_light_directions() {
-    let dir = good_dataset("ndirs");
-    std::fs::write(dir.join("light_directions.txt"), "0 0 1\n0.1 0 1\n").unwrap();
-    let err = load(&dir).unwrap_err();
-    assert!(
-        matches!(
-            err,
-            Error::LightCount {
-                expected: 3,
-                found: 2,
-                ..
-            }
-        ),
-        "{err}"
-    );
-    assert_mentions(&err, "light_directions.txt");
+    let err = error_after("ndirs", |d| {
+        write(d, "light_directions.txt", "0 0 1\n0.1 0 1\n")
+    });
+    assert_light_count(&err, 3, 2, "light_directions.txt");
 }
 
 #[test]
 fn wrong_number_of_intensities() {
-    let dir = good_dataset("nint");
-    std::fs::write(dir.join("light_intensities.txt"), "1\n1\n1\n1\n").unwrap();
-    let err = load(&dir).unwrap_err();
-    assert!(
-        matches!(
-            err,
-            Error::LightCount {
-                expected: 3,
-                found: 4,
-                ..
-            }
-        ),
-        "{err}"
-    );
-    assert_mentions(&err, "light_intensities.txt");
+    let err = error_after("nint", |d| {
+        write(d, "light_intensities.txt", "1\n1\n1\n1\n")
+    });
+    assert_light_count(&err, 3, 4, "light_intensities.txt");
 }
 
 #[test]
 fn non_image_file_listed_in_filenames() {
-    let dir = good_dataset("nonimage");
-    std::fs::write(dir.join("notes.txt"), "not a picture").unwrap();
-    std::fs::write(dir.join("filenames.txt"), "001.png\nnotes.txt\n003.png\n").unwrap();
-    let err = load(&dir).unwrap_err();
-    assert!(
-        matches!(&err, Error::Decode { path, .. } if path.ends_with("notes.txt")),
-        "{err}"
-    );
+    let err = error_after("nonimage", |d| {
+        write(d, "notes.txt", "not a picture");
+        write(d, "filenames.txt", "001.png\nnotes.txt\n003.png\n");
+    });
+    assert_decode_of(&err, "notes.txt");
 }
 
 #[test]
 fn corrupt_png_is_named() {
-    let dir = good_dataset("corrupt");
-    std::fs::write(dir.join("002.png"), b"\x89PNG\r\n\x1a\ngarbage").unwrap();
-    std::fs::remove_file(dir.join("filenames.txt")).unwrap();
-    let err = load(&dir).unwrap_err();
-    assert!(
-        matches!(&err, Error::Decode { path, .. } if path.ends_with("002.png")),
-        "{err}"
-    );
+    let err = error_after("corrupt", |d| {
+        std::fs::write(d.join("002.png"), b"\x89PNG\r\n\x1a\ngarbage").unwrap();
+        remove(d, "filenames.txt");
+    });
+    assert_decode_of(&err, "002.png");
 }
 
 #[test]
 fn listed_file_that_does_not_exist() {
-    let dir = good_dataset("listedmissing");
-    std::fs::write(dir.join("filenames.txt"), "001.png\n002.png\n007.png\n").unwrap();
-    let err = load(&dir).unwrap_err();
-    assert!(
-        matches!(&err, Error::NotFound { path, .. } if path.ends_with("007.png")),
-        "{err}"
-    );
+    let err = error_after("listedmissing", |d| {
+        write(d, "filenames.txt", "001.png\n002.png\n007.png\n")
+    });
+    assert_not_found(&err, "007.png");
 }
 
 #[test]
 fn mask_of_the_wrong_size() {
-    let dir = good_dataset("masksize");
-    image::GrayImage::from_pixel(4, 4, image::Luma([255]))
-        .save(dir.join("mask.png"))
-        .unwrap();
-    let err = load(&dir).unwrap_err();
+    let err = error_after("masksize", |d| {
+        let full = image::GrayImage::from_pixel(4, 4, image::Luma([255]));
+        save_gray(d, "mask.png", full);
+    });
     assert!(
         matches!(
             err,
@@ -198,40 +214,30 @@ fn mask_of_the_wrong_size() {
 
 #[test]
 fn empty_mask() {
-    let dir = good_dataset("maskempty");
-    image::GrayImage::new(4, 3)
-        .save(dir.join("mask.png"))
-        .unwrap();
-    let err = load(&dir).unwrap_err();
+    let err = error_after("maskempty", |d| {
+        save_gray(d, "mask.png", image::GrayImage::new(4, 3))
+    });
     assert!(matches!(err, Error::EmptyMask { .. }), "{err}");
     assert_mentions(&err, "mask.png");
 }
 
 #[test]
 fn missing_mask_when_one_is_required() {
-    let dir = good_dataset("maskreq");
-    std::fs::remove_file(dir.join("mask.png")).unwrap();
-    assert!(load(&dir).unwrap().mask.is_none());
-    let opts = LoadOptions {
-        require_mask: true,
-        ..LoadOptions::default()
-    };
-    let err = io::load_dataset(&dir, &opts).unwrap_err();
-    assert!(
-        matches!(&err, Error::NotFound { path, .. } if path.ends_with("mask.png")),
-        "{err}"
-    );
+    let mut opts = LoadOptions::default();
+    opts.require_mask = true;
+    let err = error_after_with("maskreq", &opts, |d| {
+        remove(d, "mask.png");
+        // the mask is optional unless required
+        assert!(load(d).unwrap().mask.is_none());
+    });
+    assert_not_found(&err, "mask.png");
 }
 
 #[test]
 fn missing_lights_when_required() {
-    let dir = good_dataset("lightsreq");
-    std::fs::remove_file(dir.join("light_directions.txt")).unwrap();
-    let opts = LoadOptions {
-        require_lights: true,
-        ..LoadOptions::default()
-    };
-    let err = io::load_dataset(&dir, &opts).unwrap_err();
+    let mut opts = LoadOptions::default();
+    opts.require_lights = true;
+    let err = error_after_with("lightsreq", &opts, |d| remove(d, "light_directions.txt"));
     assert_mentions(&err, "light_directions.txt");
 }
 
@@ -246,9 +252,9 @@ fn bad_light_direction_lines() {
         ("inf 0 1\n0 0 1\n0 0 1\n", 1, "inf"),
     ];
     for (i, (text, line, needle)) in cases.iter().enumerate() {
-        let dir = good_dataset(&format!("dirs{i}"));
-        std::fs::write(dir.join("light_directions.txt"), text).unwrap();
-        let err = load(&dir).unwrap_err();
+        let err = error_after(&format!("dirs{i}"), |d| {
+            write(d, "light_directions.txt", text)
+        });
         match &err {
             Error::Parse { path, line: l, .. } => {
                 assert!(path.ends_with("light_directions.txt"));
@@ -266,9 +272,9 @@ fn bad_intensities() {
         .iter()
         .enumerate()
     {
-        let dir = good_dataset(&format!("int{i}"));
-        std::fs::write(dir.join("light_intensities.txt"), text).unwrap();
-        let err = load(&dir).unwrap_err();
+        let err = error_after(&format!("int{i}"), |d| {
+            write(d, "light_intensities.txt", text)
+        });
         assert!(
             matches!(&err, Error::Parse { path, .. } if path.ends_with("light_intensities.txt")),
             "{err}"
@@ -286,7 +292,7 @@ fn bad_arrays_and_files() {
     assert!(matches!(err, Error::Decode { .. }), "{err}");
     assert_mentions(&err, "(H, W, 3)");
     // Garbage is not an npy file; a missing file is named.
-    std::fs::write(dir.join("junk.npy"), b"junk").unwrap();
+    write(&dir, "junk.npy", "junk");
     assert!(matches!(
         io::read_gray_npy(&dir.join("junk.npy")),
         Err(Error::Decode { .. })

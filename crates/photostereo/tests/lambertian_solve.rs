@@ -4,24 +4,53 @@ mod sphere_support;
 
 use photostereo::error::Error;
 use photostereo::image::{ImageStack, Lights, Mask, NormalMap};
-use photostereo::lambertian::{solve, Options};
-use photostereo::synth::{default_lights, render, Material, SceneOptions, Shape, ShapeKind};
+use photostereo::lambertian::{solve, Options, Output};
+use photostereo::synth::{default_lights, render, Material, Scene, SceneOptions, Shape, ShapeKind};
 use sphere_support::angle_deg;
+
+/// A noise-free `size`×`size` render of the preset `kind` in `material` under `k`
+/// default lights.
+fn scene_options(kind: ShapeKind, size: usize, material: Material, k: usize) -> SceneOptions {
+    SceneOptions {
+        width: size,
+        height: size,
+        shape: Shape::preset(kind, size, size),
+        material,
+        lights: default_lights(k),
+        ..SceneOptions::default()
+    }
+}
+
+/// Solve a rendered scene with `opts`.
+fn solve_scene(scene: &Scene, opts: &Options) -> Output {
+    solve(&scene.stack, &scene.mask, &scene.lights, opts).unwrap()
+}
+
+/// The robust solve of `scene` with its mean error and that of plain least squares (degrees).
+fn robust_and_plain(scene: &Scene) -> (Output, f64, f64) {
+    let robust = solve_scene(scene, &Options::default());
+    let plain = solve_scene(scene, &Options::plain());
+    let er = mean_error(&robust.normals, &scene.normals, &scene.mask);
+    let ep = mean_error(&plain.normals, &scene.normals, &scene.mask);
+    (robust, er, ep)
+}
+
+/// Pixel `i` holds a finite unit normal.
+fn assert_unit(i: usize, n: [f32; 3]) {
+    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    assert!(
+        (len - 1.0).abs() < 1e-4 && len.is_finite(),
+        "pixel {i}: normal {n:?} is not unit"
+    );
+}
 
 /// Mean angular error (degrees) over the mask; also checks every normal is unit.
 fn mean_error(found: &NormalMap, truth: &NormalMap, mask: &Mask) -> f64 {
     let (mut sum, mut n) = (0.0, 0usize);
-    for i in 0..mask.len() {
-        if mask.data[i] {
-            let f = found.data[i];
-            let len = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
-            assert!(
-                (len - 1.0).abs() < 1e-4,
-                "pixel {i}: normal {f:?} is not unit"
-            );
-            sum += angle_deg(f, truth.data[i]);
-            n += 1;
-        }
+    for i in (0..mask.len()).filter(|&i| mask.data[i]) {
+        assert_unit(i, found.data[i]);
+        sum += angle_deg(found.data[i], truth.data[i]);
+        n += 1;
     }
     sum / n as f64
 }
@@ -29,27 +58,9 @@ fn mean_error(found: &NormalMap, truth: &NormalMap, mask: &Mask) -> f64 {
 #[test]
 fn lambertian_blob_is_exact_with_shadow_rejection() {
     // lights up to 60° off axis: many attached and cast shadows, which bias plain LS
-    let opts = SceneOptions {
-        width: 128,
-        height: 128,
-        shape: Shape::preset(ShapeKind::Blob, 128, 128),
-        material: Material::lambertian(0.8),
-        lights: default_lights(12),
-        ..SceneOptions::default()
-    };
+    let opts = scene_options(ShapeKind::Blob, 128, Material::lambertian(0.8), 12);
     let scene = render(&opts).unwrap();
-    let robust = solve(
-        &scene.stack,
-        &scene.mask,
-        &scene.lights,
-        &Options::default(),
-    )
-    .unwrap();
-    let plain = solve(&scene.stack, &scene.mask, &scene.lights, &Options::plain()).unwrap();
-    let (er, ep) = (
-        mean_error(&robust.normals, &scene.normals, &scene.mask),
-        mean_error(&plain.normals, &scene.normals, &scene.mask),
-    );
+    let (robust, er, ep) = robust_and_plain(&scene);
     println!("Lambertian blob, K=12: robust {er:.4}°, plain least squares {ep:.4}°");
     assert!(er < 0.05, "robust mean error {er:.4}°");
     // albedo recovered (the synthetic albedo is 0.8 everywhere on the mask)
@@ -65,28 +76,12 @@ fn lambertian_blob_is_exact_with_shadow_rejection() {
 fn shiny_target_outlier_rejection_halves_the_error() {
     // GGX shiny plastic, 48 lights, 0.5% noise
     let opts = SceneOptions {
-        width: 160,
-        height: 160,
-        shape: Shape::preset(ShapeKind::Blob, 160, 160),
-        material: Material::shiny_plastic(),
-        lights: default_lights(48),
         noise_sigma: 0.005,
         seed: 3,
-        ..SceneOptions::default()
+        ..scene_options(ShapeKind::Blob, 160, Material::shiny_plastic(), 48)
     };
     let scene = render(&opts).unwrap();
-    let robust = solve(
-        &scene.stack,
-        &scene.mask,
-        &scene.lights,
-        &Options::default(),
-    )
-    .unwrap();
-    let plain = solve(&scene.stack, &scene.mask, &scene.lights, &Options::plain()).unwrap();
-    let (er, ep) = (
-        mean_error(&robust.normals, &scene.normals, &scene.mask),
-        mean_error(&plain.normals, &scene.normals, &scene.mask),
-    );
+    let (robust, er, ep) = robust_and_plain(&scene);
     println!("shiny plastic blob, K=48, 0.5% noise: robust {er:.3}°, plain least squares {ep:.3}° (ratio {:.1}x)", ep / er);
     assert!(2.0 * er < ep, "robust {er:.3}° vs plain {ep:.3}°");
     let used = robust
@@ -119,11 +114,7 @@ fn every_mask_pixel_gets_a_unit_normal() {
     let out = solve(&stack, &scene.mask, &scene.lights, &Options::default()).unwrap();
     for (i, n) in out.normals.data.iter().enumerate() {
         if scene.mask.data[i] {
-            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-            assert!(
-                (len - 1.0).abs() < 1e-4 && len.is_finite(),
-                "pixel {i}: {n:?}"
-            );
+            assert_unit(i, *n);
         } else {
             assert_eq!(*n, [0.0; 3]);
         }
@@ -136,36 +127,26 @@ fn small_stack(k: usize) -> (ImageStack, Mask) {
     (ImageStack::zeros(8, 6, k), Mask::full(8, 6))
 }
 
+/// `k` zero images under `lights` are refused with `LightCount { expected, found }`.
+fn assert_light_count(k: usize, lights: &Lights, expected: usize, found: usize) {
+    let (stack, mask) = small_stack(k);
+    let err = solve(&stack, &mask, lights, &Options::default()).unwrap_err();
+    println!("{err}");
+    assert!(
+        matches!(err, Error::LightCount { expected: e, found: f, .. } if (e, f) == (expected, found)),
+        "{err}"
+    );
+}
+
 #[test]
 fn two_images_are_refused() {
-    let (stack, mask) = small_stack(2);
     let lights = Lights::from_directions(vec![[0.0, 0.0, 1.0], [0.5, 0.0, 1.0]]);
-    let err = solve(&stack, &mask, &lights, &Options::default()).unwrap_err();
-    println!("{err}");
-    assert!(matches!(
-        err,
-        Error::LightCount {
-            expected: 3,
-            found: 2,
-            ..
-        }
-    ));
+    assert_light_count(2, &lights, 3, 2);
 }
 
 #[test]
 fn light_count_must_match_the_images() {
-    let (stack, mask) = small_stack(4);
-    let lights = default_lights(5);
-    let err = solve(&stack, &mask, &lights, &Options::default()).unwrap_err();
-    println!("{err}");
-    assert!(matches!(
-        err,
-        Error::LightCount {
-            expected: 4,
-            found: 5,
-            ..
-        }
-    ));
+    assert_light_count(4, &default_lights(5), 4, 5);
 }
 
 #[test]
@@ -192,22 +173,9 @@ fn coplanar_lights_and_bad_masks_are_refused() {
 fn four_lights_with_one_shadow_stay_exact() {
     // K = 4: the highlight trimming would leave too few samples where one light is in
     // attached shadow; the solver must then keep the three lit samples, not use all four.
-    let opts = SceneOptions {
-        width: 96,
-        height: 96,
-        shape: Shape::preset(ShapeKind::Sphere, 96, 96),
-        material: Material::lambertian(0.7),
-        lights: default_lights(4),
-        ..SceneOptions::default()
-    };
+    let opts = scene_options(ShapeKind::Sphere, 96, Material::lambertian(0.7), 4);
     let scene = render(&opts).unwrap();
-    let out = solve(
-        &scene.stack,
-        &scene.mask,
-        &scene.lights,
-        &Options::default(),
-    )
-    .unwrap();
+    let out = solve_scene(&scene, &Options::default());
     // pixels lit by at least 3 of the 4 lights
     let lit3 = Mask::from_fn(96, 96, |r, c| {
         let n = *scene.normals.get(r, c);
