@@ -223,8 +223,10 @@ fn empty_mask() {
 
 #[test]
 fn missing_mask_when_one_is_required() {
-    let mut opts = LoadOptions::default();
-    opts.require_mask = true;
+    let opts = LoadOptions {
+        require_mask: true,
+        ..LoadOptions::default()
+    };
     let err = error_after_with("maskreq", &opts, |d| {
         remove(d, "mask.png");
         // the mask is optional unless required
@@ -235,8 +237,10 @@ fn missing_mask_when_one_is_required() {
 
 #[test]
 fn missing_lights_when_required() {
-    let mut opts = LoadOptions::default();
-    opts.require_lights = true;
+    let opts = LoadOptions {
+        require_lights: true,
+        ..LoadOptions::default()
+    };
     let err = error_after_with("lightsreq", &opts, |d| remove(d, "light_directions.txt"));
     assert_mentions(&err, "light_directions.txt");
 }
