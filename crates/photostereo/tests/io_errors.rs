@@ -41,6 +41,15 @@ fn error_after(name: &str, edit: impl FnOnce(&Path)) -> Error {
     error_after_with(name, &LoadOptions::default(), edit)
 }
 
+/// Load options that require the mask and/or the light directions.
+fn requiring(mask: bool, lights: bool) -> LoadOptions {
+    LoadOptions {
+        require_mask: mask,
+        require_lights: lights,
+        ..LoadOptions::default()
+    }
+}
+
 /// Replace (or create) the text file `file` in `dir`.
 fn write(dir: &Path, file: &str, text: &str) {
     std::fs::write(dir.join(file), text).unwrap();
@@ -223,11 +232,7 @@ fn empty_mask() {
 
 #[test]
 fn missing_mask_when_one_is_required() {
-    let opts = LoadOptions {
-        require_mask: true,
-        ..LoadOptions::default()
-    };
-    let err = error_after_with("maskreq", &opts, |d| {
+    let err = error_after_with("maskreq", &requiring(true, false), |d| {
         remove(d, "mask.png");
         // the mask is optional unless required
         assert!(load(d).unwrap().mask.is_none());
@@ -237,11 +242,9 @@ fn missing_mask_when_one_is_required() {
 
 #[test]
 fn missing_lights_when_required() {
-    let opts = LoadOptions {
-        require_lights: true,
-        ..LoadOptions::default()
-    };
-    let err = error_after_with("lightsreq", &opts, |d| remove(d, "light_directions.txt"));
+    let err = error_after_with("lightsreq", &requiring(false, true), |d| {
+        remove(d, "light_directions.txt")
+    });
     assert_mentions(&err, "light_directions.txt");
 }
 
