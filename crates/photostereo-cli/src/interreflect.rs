@@ -37,7 +37,7 @@ pub struct Args {
     #[arg(long, default_value_t = 64)]
     pub azimuths: usize,
     /// Multiply the loaded images by this factor (default: 65535/scale from meta.json, else 1).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub image_scale: Option<f32>,
     /// Image row of the cross-section plot (default: the middle of the mask).
     #[arg(long)]

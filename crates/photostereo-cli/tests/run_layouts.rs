@@ -183,6 +183,17 @@ fn bad_invocations_say_what_to_do_and_lights_come_from_a_file() {
         !ok && err.contains("--sphere") && err.contains("--lambertian"),
         "{err}"
     );
+    for bad in ["0", "-2", "NaN"] {
+        let (ok, err) = run_on(&["--lambertian", "--image-scale", bad], &data, &out);
+        assert!(
+            !ok && err.contains("--image-scale") && err.contains("> 0"),
+            "{err}"
+        );
+        assert!(
+            !out.join("run.json").exists(),
+            "no output after --image-scale {bad}"
+        );
+    }
     let lights = out.with_extension("lights.txt");
     std::fs::rename(data.join("light_directions.txt"), &lights).unwrap();
     let (ok, err) = run_on(&["--lambertian"], &data, &out);

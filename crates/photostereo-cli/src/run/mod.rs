@@ -50,7 +50,7 @@ pub struct Args {
     /// that the albedo is absolute (interreflection removal depends on it). Default:
     /// 65535/scale from the dataset's meta.json if it has one, else 1 (calibrated
     /// light_intensities.txt do the same job).
-    #[arg(long, requires = "lambertian")]
+    #[arg(long, requires = "lambertian", allow_negative_numbers = true)]
     pub image_scale: Option<f32>,
     /// Integrator: path, fc, fc-reflect, dct, lsq (default: dct on a full rectangle,
     /// lsq with a mask).
