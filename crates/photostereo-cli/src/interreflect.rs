@@ -53,7 +53,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     };
     let mut data = io::load_dataset(&args.dataset, &opts)
         .with_context(|| format!("loading {}", args.dataset.display()))?;
-    let scale = radiance_scale(&args.dataset, args.image_scale)?;
+    let scale = radiance_scale(&args.dataset, args.image_scale, true)?;
     data.stack.data.iter_mut().for_each(|v| *v *= scale);
     let lights = data.lights.clone().context("light directions")?;
     let mask = data.mask.clone().context("mask")?;
@@ -107,15 +107,20 @@ fn auto_block(mask: &photostereo::Mask) -> usize {
         .unwrap_or(64)
 }
 
-/// `65535 / scale` from the dataset's meta.json (Mitsuba renders store 16-bit = radiance × scale).
 /// The factor that brings a dataset's images to radiance units: `--image-scale` when
-/// given, else 65535/scale from its `meta.json` (renders that store radiance × scale in
-/// 16-bit PNGs), else 1. Interreflection removal needs it: the bounced light depends on
-/// the absolute albedo, which photometric stereo only knows up to this factor.
-pub(crate) fn radiance_scale(dir: &Path, given: Option<f32>) -> anyhow::Result<f32> {
+/// given, else (with `use_meta`) 65535/scale from its `meta.json` (renders that store
+/// radiance × scale in 16-bit PNGs), else 1. Interreflection removal needs it: the
+/// bounced light depends on the absolute albedo, which photometric stereo only knows up
+/// to this factor.
+pub(crate) fn radiance_scale(
+    dir: &Path,
+    given: Option<f32>,
+    use_meta: bool,
+) -> anyhow::Result<f32> {
     let scale = match given {
         Some(s) => s,
-        None => meta_scale(dir)?.unwrap_or(1.0),
+        None if use_meta => meta_scale(dir)?.unwrap_or(1.0),
+        None => 1.0,
     };
     if !(scale.is_finite() && scale > 0.0) {
         anyhow::bail!("--image-scale {scale}: use a finite factor > 0");
@@ -123,6 +128,7 @@ pub(crate) fn radiance_scale(dir: &Path, given: Option<f32>) -> anyhow::Result<f
     Ok(scale)
 }
 
+/// `65535 / scale` from the dataset's meta.json (Mitsuba renders store 16-bit = radiance × scale).
 fn meta_scale(dir: &Path) -> anyhow::Result<Option<f32>> {
     let path = dir.join("meta.json");
     if !path.exists() {

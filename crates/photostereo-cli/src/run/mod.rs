@@ -48,8 +48,8 @@ pub struct Args {
     pub interreflections: bool,
     /// Multiply the target images by this factor to bring them to radiance units, so
     /// that the albedo is absolute (interreflection removal depends on it). Default:
-    /// 65535/scale from the dataset's meta.json if it has one, else 1 (calibrated
-    /// light_intensities.txt do the same job).
+    /// with --interreflections, 65535/scale from the dataset's meta.json if it has one;
+    /// else 1 (calibrated light_intensities.txt do the same job).
     #[arg(long, requires = "lambertian", allow_negative_numbers = true)]
     pub image_scale: Option<f32>,
     /// Integrator: path, fc, fc-reflect, dct, lsq (default: dct on a full rectangle,
@@ -67,15 +67,7 @@ pub fn run(args: Args, global: Global) -> Result<()> {
         bail!("say how to get normals: --sphere SPHERE_DIR (calibration-based) or --lambertian");
     }
     let t0 = Instant::now();
-    let opts = io::LoadOptions {
-        mask_path: args.mask.clone(),
-        ..Default::default()
-    };
-    let mut target = io::load_dataset(&args.target, &opts)?;
-    if args.lambertian {
-        let scale = crate::interreflect::radiance_scale(&args.target, args.image_scale)?;
-        target.stack.data.iter_mut().for_each(|v| *v *= scale);
-    }
+    let target = load_target(&args)?;
     let load_time = t0.elapsed().as_secs_f64();
     let mask = target
         .mask
@@ -123,6 +115,25 @@ pub fn run(args: Args, global: Global) -> Result<()> {
         println!("report: {}", report.display());
     }
     Ok(())
+}
+
+/// The target dataset; with `--lambertian`, brought to radiance units by `--image-scale`
+/// (or, for interreflection removal, by the factor of its meta.json).
+fn load_target(args: &Args) -> Result<io::Dataset> {
+    let opts = io::LoadOptions {
+        mask_path: args.mask.clone(),
+        ..Default::default()
+    };
+    let mut target = io::load_dataset(&args.target, &opts)?;
+    if args.lambertian {
+        let scale = crate::interreflect::radiance_scale(
+            &args.target,
+            args.image_scale,
+            args.interreflections,
+        )?;
+        target.stack.data.iter_mut().for_each(|v| *v *= scale);
+    }
+    Ok(target)
 }
 
 /// Light directions: --lights file, --chrome calibration, or the dataset's own.

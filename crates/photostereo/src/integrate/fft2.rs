@@ -224,7 +224,7 @@ mod tests {
     }
 
     #[test]
-    fn gain_one_is_the_identity_and_a_shift_gain_shifts() {
+    fn gain_one_is_the_identity_and_a_blur_gain_averages_neighbours() {
         let (w, h) = (12usize, 10usize);
         let x: Vec<f32> = (0..w * h).map(|i| ((i * 7919) % 13) as f32).collect();
         let fft = Fft2::new(w, h);

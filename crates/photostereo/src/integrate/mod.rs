@@ -60,7 +60,6 @@ mod support;
 use crate::error::{Error, Result};
 use crate::image::{DepthMap, GrayImage, Mask, NormalMap};
 use crate::progress::{NoProgress, Progress};
-use rayon::prelude::*;
 
 pub use fft2::fft_floor;
 pub use support::{label_components, Components};
@@ -288,26 +287,9 @@ pub fn integrate_gradients_with_progress(
             lsq::integrate(&p, &q, mask, opts.weights.as_ref(), comps, progress)?
         }
     };
-    let non_finite = || {
-        Error::invalid(
-            "integration",
-            "the solver produced non-finite depth; check the gradients for huge values",
-        )
-    };
     let measured = support::edge_residual(&z, &p, &q, mask);
     let residual = measured.rms as f32;
-    let (depth, parts) = match &comps {
-        Some(c) => {
-            if !support::all_finite_par(&z) {
-                return Err(non_finite());
-            }
-            (support::center_components(&z, c, w, h), c.count)
-        }
-        None => (
-            support::center_full(z, w, h, measured.depth_sum).ok_or_else(non_finite)?,
-            1,
-        ),
-    };
+    let (depth, parts) = center(z, comps.as_ref(), measured.depth_sum, w, h)?;
     Ok(Output {
         depth,
         method: opts.method,
@@ -319,6 +301,35 @@ pub fn integrate_gradients_with_progress(
             residual,
         },
     })
+}
+
+/// The solved depth with every connected part shifted to mean 0 (NaN outside the mask),
+/// and the number of parts; an error if the solver produced non-finite values.
+fn center(
+    z: Vec<f32>,
+    comps: Option<&Components>,
+    depth_sum: f64,
+    w: usize,
+    h: usize,
+) -> Result<(DepthMap, usize)> {
+    let non_finite = || {
+        Error::invalid(
+            "integration",
+            "the solver produced non-finite depth; check the gradients for huge values",
+        )
+    };
+    match comps {
+        Some(c) => {
+            if !support::all_finite_par(&z) {
+                return Err(non_finite());
+            }
+            Ok((support::center_components(&z, c, w, h), c.count))
+        }
+        None => Ok((
+            support::center_full(z, w, h, depth_sum).ok_or_else(non_finite)?,
+            1,
+        )),
+    }
 }
 
 fn check_inputs(p: &GrayImage, q: &GrayImage, mask: &Mask, opts: &Options) -> Result<()> {
@@ -340,11 +351,7 @@ fn check_inputs(p: &GrayImage, q: &GrayImage, mask: &Mask, opts: &Options) -> Re
             "integration needs an image of at least 2x2 pixels",
         ));
     }
-    if !mask
-        .data
-        .par_chunks(1 << 16)
-        .any(|c| !c.iter().all(|&m| !m))
-    {
+    if !support::any_set_par(&mask.data) {
         return Err(Error::EmptyMask {
             what: "integration mask".into(),
             fix: "use a mask with non-zero pixels over the object".into(),

@@ -230,6 +230,13 @@ pub fn all_set_par(flags: &[bool]) -> bool {
     flags.par_chunks(1 << 16).all(all_set)
 }
 
+/// Whether any flag of a large buffer is set, in parallel.
+pub fn any_set_par(flags: &[bool]) -> bool {
+    flags
+        .par_chunks(1 << 16)
+        .any(|c| c.iter().fold(false, |a, &b| a | b))
+}
+
 /// Whether every value of a large buffer is finite, in parallel and vectorised.
 pub fn all_finite_par(values: &[f32]) -> bool {
     values

@@ -169,6 +169,18 @@ fn coverage(points: &[EdgePoint], c: &Circle, tol: f64) -> (f64, usize) {
     )
 }
 
+/// A circle the detection may report: radius at least 8 px, wholly inside the `width` ×
+/// `height` window (half a pixel of slack).
+pub(crate) fn plausible(c: &Circle, width: usize, height: usize) -> bool {
+    let r_max = 0.5 * width.min(height) as f64 + 0.5;
+    c.radius >= 8.0
+        && c.radius <= r_max
+        && c.cx - c.radius >= -0.5
+        && c.cy - c.radius >= -0.5
+        && c.cx + c.radius <= width as f64 + 0.5
+        && c.cy + c.radius <= height as f64 + 0.5
+}
+
 /// Circle of best rim coverage in a `width` × `height` window (see the module docs).
 pub(crate) fn fit_contrast(
     points: &[EdgePoint],
@@ -180,15 +192,7 @@ pub(crate) fn fit_contrast(
     if points.len() < 12 {
         return None;
     }
-    let r_max = 0.5 * width.min(height) as f64 + 0.5;
-    let plausible = |c: &Circle| {
-        c.radius >= 8.0
-            && c.radius <= r_max
-            && c.cx - c.radius >= -0.5
-            && c.cy - c.radius >= -0.5
-            && c.cx + c.radius <= width as f64 + 0.5
-            && c.cy + c.radius <= height as f64 + 0.5
-    };
+    let plausible = |c: &Circle| plausible(c, width, height);
     let mut rng = SplitMix(0xC0FF_EE11);
     let mut best: Option<(f64, usize, Circle)> = None;
     for _ in 0..iterations {

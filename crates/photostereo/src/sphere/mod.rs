@@ -304,6 +304,14 @@ fn detect_contrast(
             100.0 * fit.coverage
         ));
     }
+    // Refinement may move the RANSAC circle: check it again.
+    if !contrast::plausible(&fit.circle, w, h) {
+        let c = fit.circle;
+        return Err(format!(
+            "the refined circle (cx {:.1}, cy {:.1}, r {:.1} in the search window) is under 8 px or leaves it",
+            c.cx, c.cy, c.radius
+        ));
+    }
     fit.circle.cx += x0 as f64;
     fit.circle.cy += y0 as f64;
     Ok(fit)
