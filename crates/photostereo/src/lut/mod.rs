@@ -18,7 +18,7 @@
 //!    refines the best. Most pixels skip the tree (*coherence*, one table): Gauss–Newton
 //!    starts from the previous pixel's solution in the row, extrapolated by its step,
 //!    and is kept when its relative residual √cost/‖t‖ is at most 1.5 × that of the
-//!    last pixel matched through the tree (or 0.3%). Every 16th such pixel is checked
+//!    last pixel matched or confirmed by the tree (or 0.3%). Every 16th such pixel is checked
 //!    against the tree (the nearest entry, the search seeded with the entries around the
 //!    solution): when that entry lies more than 1.5 px away and fits better, the pixel
 //!    goes through the tree search.

@@ -53,7 +53,8 @@ pub(crate) struct Scratch {
     pub seeds: Vec<u32>,
     /// The previous pixel's solution (coherence shortcut); reset at row starts and gaps.
     pub warm: Option<super::search::Warm>,
-    /// Relative residual √cost/‖t‖ of the last pixel of the row matched through the tree.
+    /// Relative residual √cost/‖t‖ of the last pixel of the row matched or confirmed by
+    /// the tree.
     pub rel_ref: f32,
 }
 

@@ -405,8 +405,9 @@ impl<'a> Solver<'a> {
 
     /// Coherence shortcut: Gauss–Newton from the previous pixel's solution extrapolated
     /// by its step, accepted when its relative residual is at most 1.5 × that of the last
-    /// pixel matched through the tree (or 0.3%). Every 16 pixels it is checked against
-    /// the tree: kept when the best tree candidate lies within 1.5 px of it or fits worse.
+    /// pixel matched or confirmed by the tree (or 0.3%). Every 16 pixels it is checked
+    /// against the tree: kept (and its residual becomes the reference) when the best tree
+    /// candidate lies within 1.5 px of it or fits worse.
     fn warm_start(&self, wk: &mut Work) -> Option<Fit> {
         let warm = wk.s.warm?;
         let start = Fit {
