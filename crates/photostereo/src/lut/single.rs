@@ -196,6 +196,43 @@ mod lanes {
 
 use lanes::V;
 
+/// The lane sums of one evaluation: JᵀJ terms (h11, h12, h22), ⟨I,I⟩, ⟨I,∂I/∂x⟩,
+/// ⟨I,∂I/∂y⟩ (weighted) and the residual terms (cost, gradient x, gradient y).
+struct Sums {
+    h: [V; 3],
+    ii: V,
+    xi: V,
+    yi: V,
+    res: [V; 3],
+}
+
+/// The evaluation's [`Point`] at scale c from its lane sums: with a fitted scale the
+/// part of ∂I that c absorbs is projected out (variable projection, Kaufman),
+/// J = c·(∂I − I⟨I,∂I⟩/⟨I,I⟩).
+#[inline(always)]
+fn point(gx: f64, gy: f64, c: f32, scaled: bool, s: &Sums) -> Point {
+    let (c64, c2) = (c as f64, (c * c) as f64);
+    let sum = |x: V| x.sum() as f64;
+    let mut h = s.h.map(sum);
+    let ii = sum(s.ii);
+    if scaled && ii > 0.0 {
+        let (xi, yi) = (sum(s.xi), sum(s.yi));
+        h = [
+            h[0] - xi * xi / ii,
+            h[1] - xi * yi / ii,
+            h[2] - yi * yi / ii,
+        ];
+    }
+    Point {
+        gx,
+        gy,
+        c,
+        cost: s.res[0].sum(),
+        h: [c2 * h[0], c2 * h[1], c2 * h[2]],
+        g: [c64 * sum(s.res[1]), c64 * sum(s.res[2])],
+    }
+}
+
 /// Second pass of a scaled fit: c = max(⟨t,I⟩/⟨I,I⟩, 0) from the sums `ti`, `ii`,
 /// then the residual terms of t − c·I (interpolated tuple and gradients in `b`) added to
 /// `acc`. Returns c.
@@ -330,28 +367,14 @@ impl<'a> Single<'a> {
         } else {
             1.0
         };
-        let (c64, c2) = (c as f64, (c * c) as f64);
-        let sum = |x: V| x.sum() as f64;
-        let mut h = [sum(h11), sum(h12), sum(h22)];
-        let ii = sum(ii);
-        if SCALE && ii > 0.0 {
-            // variable projection (Kaufman): the part of ∂I that c absorbs is projected
-            // out, J = c·(∂I − I⟨I,∂I⟩/⟨I,I⟩)
-            let (xi, yi) = (sum(xi), sum(yi));
-            h = [
-                h[0] - xi * xi / ii,
-                h[1] - xi * yi / ii,
-                h[2] - yi * yi / ii,
-            ];
-        }
-        Point {
-            gx,
-            gy,
-            c,
-            cost: res[0].sum(),
-            h: [c2 * h[0], c2 * h[1], c2 * h[2]],
-            g: [c64 * sum(res[1]), c64 * sum(res[2])],
-        }
+        let sums = Sums {
+            h: [h11, h12, h22],
+            ii,
+            xi,
+            yi,
+            res,
+        };
+        point(gx, gy, c, SCALE, &sums)
     }
 
     /// The model tuple c·I of the last evaluation into `out` (K values).
