@@ -102,6 +102,15 @@ fn calibrate_then_lookup_and_lambertian_normals_match_the_ground_truth() {
     let data = tmp("plastic");
     // GGX shiny plastic blob 80², 12 lights; sphere of radius 40 in an 84² image, centre (42, 42)
     synth(&data, "plastic", 12, 80, Some(40.0));
+    let lut = calibrate_plastic_sphere(&data);
+    let gt = io::read_normals_npy(&data.join("normal_gt.npy")).unwrap();
+    let mask = io::read_mask(&data.join("mask.png")).unwrap();
+    lookup_matches_the_ground_truth(&data, &lut, &gt, &mask);
+    lambertian_robust_beats_plain(&data, &gt, &mask);
+}
+
+/// `calibrate` on the sphere of `data`: the circle printed, the overlay and the table.
+fn calibrate_plastic_sphere(data: &Path) -> PathBuf {
     let lut = data.join("calib/plastic.lut");
     let (ok, stdout, err) = photostereo(&[
         "calibrate",
@@ -126,10 +135,13 @@ fn calibrate_then_lookup_and_lambertian_normals_match_the_ground_truth() {
     assert_eq!(table.names.first().map(String::as_str), Some("001.png"));
     assert!((table.circle.radius - r).abs() < 0.01);
 
-    let gt = io::read_normals_npy(&data.join("normal_gt.npy")).unwrap();
-    let mask = io::read_mask(&data.join("mask.png")).unwrap();
+    lut
+}
+
+/// `normals --lut` on the shiny blob: products, confidence range and accuracy.
+fn lookup_matches_the_ground_truth(data: &Path, lut: &Path, gt: &NormalMap, mask: &Mask) {
     let out = data.join("lut-out");
-    let (ok, _, err) = photostereo(&["normals", s(&data), "--lut", s(&lut), "-o", s(&out)]);
+    let (ok, _, err) = photostereo(&["normals", s(data), "--lut", s(lut), "-o", s(&out)]);
     assert!(ok, "{err}");
     for f in [
         "normals.npy",
@@ -141,7 +153,7 @@ fn calibrate_then_lookup_and_lambertian_normals_match_the_ground_truth() {
     }
     let normals = io::read_normals_npy(&out.join("normals.npy")).unwrap();
     let conf: GrayImage = io::read_gray_npy(&out.join("confidence.npy")).unwrap();
-    let err = errors(&normals, &gt, &mask);
+    let err = errors(&normals, gt, mask);
     let all = mean(err.iter().map(|e| e.0));
     let med = median(err.iter().map(|e| e.0).collect());
     let confident: Vec<f64> = err
@@ -167,16 +179,18 @@ fn calibrate_then_lookup_and_lambertian_normals_match_the_ground_truth() {
     assert!(all < 0.75, "whole-mask mean {all}°");
     assert!(confident.len() * 10 >= err.len() * 9, "≥ 90% confident");
     assert!(trusted < 0.2, "mean over confident pixels {trusted}°");
+}
 
-    // Lambertian least squares on the same shiny target: with the rejection of shadowed and
-    // highlight samples (default) far better than plain least squares
+/// Lambertian least squares on the same shiny target: with the rejection of shadowed and
+/// highlight samples (default) far better than plain least squares.
+fn lambertian_robust_beats_plain(data: &Path, gt: &NormalMap, mask: &Mask) {
     let lam = data.join("lambertian-out");
     let plain = data.join("plain-out");
-    let (ok, _, err) = photostereo(&["normals", s(&data), "--lambertian", "-o", s(&lam)]);
+    let (ok, _, err) = photostereo(&["normals", s(data), "--lambertian", "-o", s(&lam)]);
     assert!(ok, "{err}");
     let (ok, _, err) = photostereo(&[
         "normals",
-        s(&data),
+        s(data),
         "--lambertian",
         "--plain",
         "-o",
@@ -189,8 +203,8 @@ fn calibrate_then_lookup_and_lambertian_normals_match_the_ground_truth() {
     let robust = mean(
         errors(
             &io::read_normals_npy(&lam.join("normals.npy")).unwrap(),
-            &gt,
-            &mask,
+            gt,
+            mask,
         )
         .into_iter()
         .map(|e| e.0),
@@ -198,8 +212,8 @@ fn calibrate_then_lookup_and_lambertian_normals_match_the_ground_truth() {
     let plain = mean(
         errors(
             &io::read_normals_npy(&plain.join("normals.npy")).unwrap(),
-            &gt,
-            &mask,
+            gt,
+            mask,
         )
         .into_iter()
         .map(|e| e.0),
@@ -379,68 +393,11 @@ fn exposed(stack: &ImageStack, e: f32) -> ImageStack {
 
 #[test]
 fn two_tables_give_the_mix_of_two_materials() {
-    use photostereo::synth::{self, Material, SceneOptions, Shape, ShapeKind};
     let root = tmp("mixture");
     let size = 64;
-    let scene = |material| SceneOptions {
-        width: size,
-        height: size,
-        shape: Shape::preset(ShapeKind::Blob, size, size),
-        material,
-        lights: default_lights(12),
-        ..SceneOptions::default()
-    };
-    let (ma, mb) = (Material::lambertian(0.8), Material::metal());
-    let (sa, sb) = (
-        synth::render(&scene(ma)).unwrap(),
-        synth::render(&scene(mb)).unwrap(),
-    );
-    let spheres = [ma, mb].map(|m| synth::render_calibration_sphere(&scene(m), 40.0).unwrap());
-    // target = a·matte + b·metal, the weights varying along the columns
-    let weights = |i: usize| {
-        let u = (i % size) as f32 / (size - 1) as f32;
-        (1.0 - 0.5 * u, 0.1 + 0.3 * u)
-    };
-    let mut target = sa.stack.clone();
-    for i in 0..target.pixels() {
-        let (a, b) = weights(i);
-        for (t, v) in target
-            .pixel_flat_mut(i)
-            .iter_mut()
-            .zip(sb.stack.pixel_flat(i))
-        {
-            *t = a * *t + b * v;
-        }
-    }
-    // one exposure keeps every image below full scale; the intensities file undoes it
-    let peak = [&target, &spheres[0].stack, &spheres[1].stack]
-        .iter()
-        .flat_map(|s| s.data.iter().copied())
-        .fold(0.0f32, f32::max);
-    let e = 0.98 / peak;
-    let mut lights = sa.lights.clone();
-    lights.intensities = vec![e; lights.directions.len()];
-    io::write_dataset(
-        &root.join("target"),
-        &exposed(&target, e),
-        &lights,
-        Some(&sa.mask),
-        16,
-    )
-    .unwrap();
-    let luts = [root.join("matte.lut"), root.join("metal.lut")];
-    for ((sphere, name), lut) in spheres.iter().zip(["matte", "metal"]).zip(&luts) {
-        let dir = root.join(name);
-        io::write_dataset(&dir, &exposed(&sphere.stack, e), &lights, None, 16).unwrap();
-        let mut args = vec!["calibrate", s(&dir), "--material", name, "--rim", "1"];
-        // the dark metal sphere shows only its highlights: give its circle (84² image)
-        if name == "metal" {
-            args.extend(["--circle", "42,42,40"]);
-        }
-        args.extend(["-o", s(lut)]);
-        let (ok, _, err) = photostereo(&args);
-        assert!(ok, "{err}");
-    }
+    let (sa, target, spheres) = mixed_scene(size);
+    let weights = |i: usize| mix_weights(i, size);
+    let luts = write_mixture(&root, &sa, &target, &spheres);
     let out = root.join("out");
     let target_dir = root.join("target");
     let (ok, stdout, err) = photostereo(&[
@@ -487,4 +444,86 @@ fn two_tables_give_the_mix_of_two_materials() {
     assert!(mean_err < 0.5, "normals {mean_err}°");
     assert!(pct(within, n) > 93.0 && pct(confident, n) > 85.0);
     assert!(pct(confident_within, confident) >= 99.0);
+}
+
+/// Weights (matte, metal) of the mixture target at pixel i: varying along the columns.
+fn mix_weights(i: usize, size: usize) -> (f32, f32) {
+    let u = (i % size) as f32 / (size - 1) as f32;
+    (1.0 - 0.5 * u, 0.1 + 0.3 * u)
+}
+
+/// The matte blob, the mixture target a·matte + b·metal and the two calibration spheres.
+fn mixed_scene(
+    size: usize,
+) -> (
+    photostereo::synth::Scene,
+    ImageStack,
+    [photostereo::synth::Scene; 2],
+) {
+    use photostereo::synth::{self, Material, SceneOptions, Shape, ShapeKind};
+    let scene = |material| SceneOptions {
+        width: size,
+        height: size,
+        shape: Shape::preset(ShapeKind::Blob, size, size),
+        material,
+        lights: default_lights(12),
+        ..SceneOptions::default()
+    };
+    let (ma, mb) = (Material::lambertian(0.8), Material::metal());
+    let (sa, sb) = (
+        synth::render(&scene(ma)).unwrap(),
+        synth::render(&scene(mb)).unwrap(),
+    );
+    let spheres = [ma, mb].map(|m| synth::render_calibration_sphere(&scene(m), 40.0).unwrap());
+    let mut target = sa.stack.clone();
+    for i in 0..target.pixels() {
+        let (a, b) = mix_weights(i, size);
+        for (t, v) in target
+            .pixel_flat_mut(i)
+            .iter_mut()
+            .zip(sb.stack.pixel_flat(i))
+        {
+            *t = a * *t + b * v;
+        }
+    }
+    (sa, target, spheres)
+}
+
+/// Write the target and both spheres under one exposure, and `calibrate` both tables.
+fn write_mixture(
+    root: &Path,
+    sa: &photostereo::synth::Scene,
+    target: &ImageStack,
+    spheres: &[photostereo::synth::Scene; 2],
+) -> [PathBuf; 2] {
+    // one exposure keeps every image below full scale; the intensities file undoes it
+    let peak = [target, &spheres[0].stack, &spheres[1].stack]
+        .iter()
+        .flat_map(|s| s.data.iter().copied())
+        .fold(0.0f32, f32::max);
+    let e = 0.98 / peak;
+    let mut lights = sa.lights.clone();
+    lights.intensities = vec![e; lights.directions.len()];
+    io::write_dataset(
+        &root.join("target"),
+        &exposed(target, e),
+        &lights,
+        Some(&sa.mask),
+        16,
+    )
+    .unwrap();
+    let luts = [root.join("matte.lut"), root.join("metal.lut")];
+    for ((sphere, name), lut) in spheres.iter().zip(["matte", "metal"]).zip(&luts) {
+        let dir = root.join(name);
+        io::write_dataset(&dir, &exposed(&sphere.stack, e), &lights, None, 16).unwrap();
+        let mut args = vec!["calibrate", s(&dir), "--material", name, "--rim", "1"];
+        // the dark metal sphere shows only its highlights: give its circle (84² image)
+        if name == "metal" {
+            args.extend(["--circle", "42,42,40"]);
+        }
+        args.extend(["-o", s(lut)]);
+        let (ok, _, err) = photostereo(&args);
+        assert!(ok, "{err}");
+    }
+    luts
 }
