@@ -11,7 +11,7 @@
 //! kept in cache, then rows back, in parallel and in place (see `fft2` for the passes).
 
 use super::fft2::columns_in_place;
-use super::fourier::half_angle_terms;
+use super::fourier::{half_angle_terms, inverse_eigenvalue};
 use rayon::prelude::*;
 use realfft::num_complex::Complex;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
@@ -208,11 +208,7 @@ fn neumann_divergence_row(p: &[f32], q: &[f32], w: usize, h: usize, r: usize, ro
 /// Solve L z = b (Neumann Laplacian of the W × H grid) with 2-D DCTs; `fill_row(r, row)`
 /// writes row r of b. Rows are transformed in parallel, then blocks of columns (forward,
 /// divide by λ, inverse, in cache), then rows back; see [`super::fft2`] for the passes.
-pub(crate) fn solve_neumann(
-    w: usize,
-    h: usize,
-    fill_row: impl Fn(usize, &mut [f32]) + Sync,
-) -> Vec<f32> {
+fn solve_neumann(w: usize, h: usize, fill_row: impl Fn(usize, &mut [f32]) + Sync) -> Vec<f32> {
     let (dw, dh) = (Dct::new(w), Dct::new(h));
     let mut b = vec![0.0f32; w * h];
     b.par_chunks_mut(w).enumerate().for_each_init(
@@ -233,18 +229,7 @@ pub(crate) fn solve_neumann(
         || dh.buffers(),
         |k, col, buf| {
             let s_k = s_c[k];
-            dh.filter(
-                col,
-                |l| {
-                    let minus_lambda = s_k + s_r[l];
-                    if minus_lambda > 0.0 {
-                        -1.0 / minus_lambda
-                    } else {
-                        0.0
-                    }
-                },
-                buf,
-            );
+            dh.filter(col, |l| inverse_eigenvalue(s_k, s_r[l]), buf);
         },
     );
     b.par_chunks_mut(w)

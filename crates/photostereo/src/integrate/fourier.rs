@@ -79,14 +79,19 @@ fn solve_periodic(w: usize, h: usize, fill_row: impl Fn(usize, &mut [f32]) + Syn
     // cosine form cancels there).
     let s_c = half_angle_terms(fft.wc(), w, 1.0);
     let s_r = half_angle_terms(h, h, 1.0);
-    fft.filter(fill_row, |k, l| {
-        let minus_lambda = s_c[k] + s_r[l];
-        if minus_lambda > 0.0 {
-            -1.0 / minus_lambda
-        } else {
-            0.0
-        }
-    })
+    fft.filter(fill_row, |k, l| inverse_eigenvalue(s_c[k], s_r[l]))
+}
+
+/// 1/λ of the 2-D Laplacian with λ = −(s_k + s_l) (terms of [`half_angle_terms`]); 0 for
+/// the constant mode (λ = 0), which fixes the mean to 0.
+#[inline]
+pub(crate) fn inverse_eigenvalue(s_k: f32, s_l: f32) -> f32 {
+    let minus_lambda = s_k + s_l;
+    if minus_lambda > 0.0 {
+        -1.0 / minus_lambda
+    } else {
+        0.0
+    }
 }
 
 /// s_i = 4 sin²(π·i / (per·n)) for i in 0..count: minus the eigenvalues of the 1-D
