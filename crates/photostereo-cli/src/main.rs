@@ -76,7 +76,45 @@ fn main() {
         Command::Bench(a) => bench::run(a, global),
     };
     if let Err(err) = result {
-        eprintln!("error: {err:#}");
+        eprintln!("error: {}", error_message(&err));
         std::process::exit(1);
+    }
+}
+
+/// The error and its causes joined by ": ", leaving out a cause that the message before it
+/// already quotes (library errors often print their source too).
+fn error_message(err: &anyhow::Error) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    for cause in err.chain() {
+        let s = cause.to_string();
+        if !parts.last().is_some_and(|p| p.contains(&s)) {
+            parts.push(s);
+        }
+    }
+    parts.join(": ")
+}
+
+/// Refuse an output directory that is an existing file, before any work is done.
+pub fn check_output_dir(dir: &std::path::Path) -> anyhow::Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        anyhow::bail!(
+            "{}: exists and is not a directory; give -o a directory (it is created) or remove that file",
+            dir.display()
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cause_quoted_by_its_message_is_not_repeated() {
+        let io = std::io::Error::from_raw_os_error(17);
+        let err = anyhow::Error::new(io).context("out: File exists (os error 17)");
+        assert_eq!(error_message(&err), "out: File exists (os error 17)");
+        let err = anyhow::anyhow!("root cause").context("loading x");
+        assert_eq!(error_message(&err), "loading x: root cause");
     }
 }

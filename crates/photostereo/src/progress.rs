@@ -11,6 +11,8 @@ pub trait Progress: Sync {
     fn advance(&self, steps: u64);
     /// The phase is over.
     fn finish(&self) {}
+    /// A line worth showing as it happens (e.g. one row per iteration of a loop).
+    fn note(&self, _line: &str) {}
 }
 
 /// A [`Progress`] that ignores everything.
