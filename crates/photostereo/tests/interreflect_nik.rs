@@ -179,6 +179,16 @@ fn a_convex_sphere_is_left_unchanged() {
         change < 0.01,
         "the iteration moved a convex sphere by {change} px"
     );
+    // The whole history: no iterate differs from the raw one by 1 % in depth or albedo.
+    for (t, it) in out.iterations.iter().enumerate() {
+        let dz = it.depth_range / raw.depth_range - 1.0;
+        let da = it.mean_albedo / raw.mean_albedo - 1.0;
+        assert!(
+            dz.abs() < 0.01 && da.abs() < 0.01 && (t == 0 || it.relative_change < 0.01),
+            "iterate {t}: depth {dz:+.2e}, albedo {da:+.2e}, change {}",
+            it.relative_change
+        );
+    }
 }
 
 #[test]
