@@ -192,7 +192,10 @@ fn real_chrome_sphere_against_published_lights() {
     }
     let mean = e.iter().sum::<f64>() / e.len() as f64;
     summary("real chrome vs published", &e);
-    assert!(mean < 10.0, "mean angle to the published lights {mean:.2}°");
+    // measured 3.04°, worst light 8.5°
+    assert!(mean < 6.0, "mean angle to the published lights {mean:.2}°");
+    let worst = e.iter().copied().fold(0.0, f64::max);
+    assert!(worst < 17.0, "worst light {worst:.2}°");
     // the same with the circle detected in the images (contrast edges of the rim)
     let found = detect(&stack, &DetectOptions::default()).unwrap().circle;
     let (from_images, _) = from_chrome_sphere(&stack, &found, &ChromeOptions::default()).unwrap();
@@ -207,8 +210,11 @@ fn real_chrome_sphere_against_published_lights() {
     );
     summary("real chrome vs published, circle from the images", &e2);
     let mean2 = e2.iter().sum::<f64>() / e2.len() as f64;
+    // measured 2.73°, worst light 8.4°
     assert!(
-        mean2 < 10.0,
+        mean2 < 5.5,
         "mean angle to the published lights {mean2:.2}°"
     );
+    let worst2 = e2.iter().copied().fold(0.0, f64::max);
+    assert!(worst2 < 17.0, "worst light {worst2:.2}°");
 }
