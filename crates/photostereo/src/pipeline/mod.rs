@@ -113,6 +113,8 @@ pub struct Options {
     pub nik: interreflect::NikOptions,
 }
 
+// Written out (not derived) so that every new option states its default here.
+#[allow(clippy::derivable_impls)]
 impl Default for Options {
     fn default() -> Self {
         Options {
