@@ -71,6 +71,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             },
             ..Default::default()
         },
+        scale_known: photostereo::pipeline::scale_is_known(&args.dataset, args.image_scale, true)?,
         ..Default::default()
     };
     let out = interreflect::solve(&data.stack, &mask, &lights, &nik, &Bar::new(global.quiet))

@@ -47,6 +47,10 @@ pub struct Loaded {
     pub titles: Titles,
     /// (stage, seconds) of the loading: `load`, and `lights` for a Lambertian job.
     pub stages: Vec<(String, f64)>,
+    /// Whether the images' radiance scale is known (given, or from `meta.json` with
+    /// interreflection removal; [`scale_is_known`]); [`run`] passes it on as
+    /// [`crate::interreflect::NikOptions::scale_known`].
+    pub scale_known: bool,
 }
 
 /// A finished run.
@@ -74,6 +78,8 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         let scale = radiance_scale(&inputs.target, inputs.image_scale, opts.interreflections)?;
         target.stack.data.iter_mut().for_each(|v| *v *= scale);
     }
+    let scale_known = inputs.lambertian
+        && scale_is_known(&inputs.target, inputs.image_scale, opts.interreflections)?;
     let mut stages = vec![("load".to_string(), t0.elapsed().as_secs_f64())];
     let mask = target
         .mask
@@ -111,13 +117,16 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         job,
         titles,
         stages,
+        scale_known,
     })
 }
 
 /// The whole job: [`load`], [`super::solve`], [`super::write_outputs`] into `out`.
 pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress) -> Result<Run> {
     let loaded = load(inputs, opts, progress)?;
-    let output = super::solve(&loaded.job, opts, progress)?;
+    let mut opts = opts.clone();
+    opts.nik.scale_known |= loaded.scale_known;
+    let output = super::solve(&loaded.job, &opts, progress)?;
     let report = super::write_outputs(out, &loaded.titles, &loaded.job, &output, &loaded.stages)?;
     let mut stages = loaded.stages.clone();
     stages.extend(output.stages.iter().cloned());
@@ -171,6 +180,12 @@ pub fn radiance_scale(dir: &Path, given: Option<f32>, use_meta: bool) -> Result<
         ));
     }
     Ok(scale)
+}
+
+/// Whether [`radiance_scale`] knows the factor (`given`, or with `use_meta` a `meta.json`
+/// scale) rather than assuming 1: [`crate::interreflect::NikOptions::scale_known`].
+pub fn scale_is_known(dir: &Path, given: Option<f32>, use_meta: bool) -> Result<bool> {
+    Ok(given.is_some() || (use_meta && io::read_meta_scale(dir)?.is_some()))
 }
 
 /// Light directions: the `lights` file, the `chrome` calibration, or the dataset's own.

@@ -40,7 +40,7 @@ use crate::progress::Progress;
 use crate::{eval, integrate, interreflect, lambertian, lut, mesh, sphere};
 
 pub use figures::{depth_range, masked_mean, run_json};
-pub use load::{load, radiance_scale, run, Inputs, Loaded, Run};
+pub use load::{load, radiance_scale, run, scale_is_known, Inputs, Loaded, Run};
 pub use outputs::{build_report, write_outputs, Titles};
 
 /// A calibration made beforehand: the lookup table and, when known, the sphere
