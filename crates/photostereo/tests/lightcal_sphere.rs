@@ -46,7 +46,7 @@ fn matte_sphere_within_half_a_degree() {
     let lights = from_matte_sphere(&scene.stack, &circle, &MatteOptions::default()).unwrap();
     let e = errors(&lights.directions, &opts.lights.directions);
     let max = summary("matte sphere, detected circle, 1% noise", &e);
-    assert!(max < 0.5);
+    assert!(max < 0.09, "worst light {max}°"); // measured 0.029° (mean 0.018°)
     for i in &lights.intensities {
         assert!((i - 1.0).abs() < 0.01, "relative intensity {i}");
     }
@@ -84,7 +84,7 @@ fn chrome_sphere_within_one_degree() {
         );
     }
     let max = summary("chrome sphere (GGX α 0.03), 0.5% noise", &e);
-    assert!(max < 1.0);
+    assert!(max < 0.16, "worst light {max}°"); // measured 0.053° (mean 0.032°)
 }
 
 #[test]
@@ -108,7 +108,7 @@ fn mirror_sphere_raster_within_one_degree() {
     let stack = render(&scene);
     let (found, _) = from_chrome_sphere(&stack, &scene.circle, &ChromeOptions::default()).unwrap();
     let max = summary("ideal mirror sphere", &errors(&found.directions, &lights));
-    assert!(max < 1.0);
+    assert!(max < 0.6, "worst light {max}°"); // measured 0.224° (mean 0.145°)
 }
 
 #[test]
