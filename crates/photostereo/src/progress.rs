@@ -11,8 +11,12 @@ pub trait Progress: Sync {
     fn advance(&self, steps: u64);
     /// The phase is over.
     fn finish(&self) {}
-    /// A line worth showing as it happens (e.g. one row per iteration of a loop).
-    fn note(&self, _line: &str) {}
+    /// Stage `index` (1-based) of `total` of a pipeline starts (`seconds` = `None`) or
+    /// has ended after `seconds` (see [`crate::pipeline`]).
+    fn stage(&self, _index: usize, _total: usize, _name: &str, _seconds: Option<f64>) {}
+    /// A one-line note for the user as it happens (where the lights came from, a warning,
+    /// one row per iteration of a loop).
+    fn note(&self, _message: &str) {}
 }
 
 /// A [`Progress`] that ignores everything.
