@@ -92,8 +92,6 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     Ok(())
 }
 
-}
-
 fn write_outputs(
     args: &Args,
     out: &NikOutput,

@@ -467,7 +467,7 @@ pub fn convergence_plot_png(out: &NikOutput) -> Result<Vec<u8>> {
         y_log: true,
     };
     let bottom = LinePlot {
-        title: "Depth of the concavity".into(),
+        title: "Depth range (the depth of a concavity)".into(),
         x_label: "iteration".into(),
         y_label: "depth range (px)".into(),
         series: vec![Series {
