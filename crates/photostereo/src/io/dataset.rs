@@ -2,7 +2,7 @@
 //! [module docs](super) for the files and the rules).
 
 use super::raster::{decode_gray, read_mask_any, save_png, write_mask_png, Decoded, LUMA};
-use super::{read_file, write_text};
+use super::{read_text, write_text};
 use crate::error::{Error, Result};
 use crate::image::{normalize, ImageStack, Lights, Mask};
 use rayon::prelude::*;
@@ -315,14 +315,6 @@ pub fn natural_cmp(a: &str, b: &str) -> Ordering {
 fn trim_zeros(d: &[u8]) -> &[u8] {
     let z = d.iter().take_while(|&&c| c == b'0').count();
     &d[z..]
-}
-
-fn read_text(path: &Path) -> Result<String> {
-    let bytes = read_file(path, "check the dataset directory")?;
-    String::from_utf8(bytes).map_err(|_| Error::Decode {
-        path: path.to_path_buf(),
-        message: "not a UTF-8 text file".into(),
-    })
 }
 
 /// Parse the numeric lines of a text table (blank lines and `#` comments skipped;

@@ -36,6 +36,7 @@
 //! was written, so a failed or interrupted run never leaves a half-written file.
 
 pub mod dataset;
+pub mod limits;
 pub mod npy;
 pub mod raster;
 
@@ -52,6 +53,7 @@ pub use raster::{
 };
 
 use crate::error::{Error, Result};
+use crate::lut::Table;
 use std::fs::{self, File, OpenOptions};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -114,9 +116,34 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomic(path, |w| w.write_all(bytes).map_err(|e| Error::io(path, e)))
 }
 
-/// Read a whole file, with [`Error::NotFound`] naming it when it does not exist.
-pub(crate) fn read_file(path: &Path, fix: &str) -> Result<Vec<u8>> {
-    fs::read(path).map_err(|e| not_found_or_io(path, e, fix))
+/// Read a UTF-8 text file of at most [`limits::MAX_TEXT_BYTES`] (light directions,
+/// intensities, file lists, JSON side files), with [`Error::NotFound`] naming it when
+/// it does not exist.
+pub fn read_text(path: &Path) -> Result<String> {
+    let bytes = limits::read_bounded(path, limits::MAX_TEXT_BYTES, "check the path")?;
+    String::from_utf8(bytes).map_err(|_| Error::Decode {
+        path: path.to_path_buf(),
+        message: "not a UTF-8 text file".into(),
+    })
+}
+
+/// Read a lookup table written by [`write_table`] (format and checks:
+/// [`crate::lut::format`]); errors name the file.
+pub fn read_table(path: &Path) -> Result<Table> {
+    let fix = "give the path of a table written by `photostereo calibrate`";
+    let bytes = limits::read_bounded(path, limits::MAX_FILE_BYTES, fix)?;
+    Table::from_bytes(&bytes).map_err(|e| match e {
+        Error::InvalidInput { what, fix } => Error::InvalidInput {
+            what: format!("{}: {what}", path.display()),
+            fix,
+        },
+        other => other,
+    })
+}
+
+/// Write a lookup table (atomic).
+pub fn write_table(path: &Path, table: &Table) -> Result<()> {
+    write_bytes(path, &table.to_bytes())
 }
 
 /// Map an I/O error to [`Error::NotFound`] (with `fix`) or [`Error::Io`].
