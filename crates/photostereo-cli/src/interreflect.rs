@@ -134,7 +134,8 @@ fn meta_scale(dir: &Path) -> anyhow::Result<Option<f32>> {
     if !path.exists() {
         return Ok(None);
     }
-    let text = io::read_text(&path).with_context(|| format!("reading {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
     let v: serde_json::Value =
         serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
     Ok(v.get("scale")

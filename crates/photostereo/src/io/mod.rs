@@ -53,7 +53,6 @@ pub use raster::{
 };
 
 use crate::error::{Error, Result};
-use crate::lut::Table;
 use std::fs::{self, File, OpenOptions};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -74,7 +73,13 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
             "give the path of a file to write",
         ));
     };
-    fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    if path.is_dir() {
+        return Err(Error::invalid(
+            format!("{}: is a directory", path.display()),
+            "give the path of a file to write (a new name, or a file to replace)",
+        ));
+    }
+    create_dir_all(&dir)?;
     let tmp = temp_path(&dir, &name.to_string_lossy());
     let result = write_temp(&tmp, fill)
         .and_then(|()| fs::rename(&tmp, path).map_err(|e| Error::io(path, e)));
@@ -83,6 +88,18 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
         let _ = fs::remove_file(&tmp);
     }
     result
+}
+
+/// The error of creating the directory `dir`: when a part of it is an existing file,
+/// say so, naming that file.
+fn dir_error(dir: &Path, e: std::io::Error) -> Error {
+    match dir.ancestors().find(|a| a.is_file()) {
+        Some(file) => Error::invalid(
+            format!("{}: is a file, not a directory", file.display()),
+            "give an output path that is a directory or does not exist yet",
+        ),
+        None => Error::io(dir, e),
+    }
 }
 
 /// A fresh, unused temporary name in `dir` for a file that will become `name`.
@@ -127,23 +144,16 @@ pub fn read_text(path: &Path) -> Result<String> {
     })
 }
 
-/// Read a lookup table written by [`write_table`] (format and checks:
-/// [`crate::lut::format`]); errors name the file.
-pub fn read_table(path: &Path) -> Result<Table> {
-    let fix = "give the path of a table written by `photostereo calibrate`";
-    let bytes = limits::read_bounded(path, limits::MAX_FILE_BYTES, fix)?;
-    Table::from_bytes(&bytes).map_err(|e| match e {
-        Error::InvalidInput { what, fix } => Error::InvalidInput {
-            what: format!("{}: {what}", path.display()),
-            fix,
-        },
-        other => other,
-    })
+/// Read a whole file of at most [`limits::MAX_FILE_BYTES`], with [`Error::NotFound`]
+/// naming it when it does not exist.
+pub(crate) fn read_file(path: &Path, fix: &str) -> Result<Vec<u8>> {
+    limits::read_bounded(path, limits::MAX_FILE_BYTES, fix)
 }
 
-/// Write a lookup table (atomic).
-pub fn write_table(path: &Path, table: &Table) -> Result<()> {
-    write_bytes(path, &table.to_bytes())
+/// Create a directory and its parents; when a part of the path is an existing file, the
+/// error says so, naming that file.
+pub fn create_dir_all(dir: &Path) -> Result<()> {
+    fs::create_dir_all(dir).map_err(|e| dir_error(dir, e))
 }
 
 /// Map an I/O error to [`Error::NotFound`] (with `fix`) or [`Error::Io`].

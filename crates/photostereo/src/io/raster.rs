@@ -93,6 +93,17 @@ pub(crate) fn decode_gray(path: &Path, channel_scale: Option<[f32; 3]>) -> Resul
             })
         }
     };
+    if let Some(i) = data.iter().position(|v| !v.is_finite()) {
+        return Err(Error::Decode {
+            path: path.to_path_buf(),
+            message: format!(
+                "pixel (x {}, y {}) is {} (float images must hold finite values)",
+                i % w.max(1),
+                i / w.max(1),
+                data[i]
+            ),
+        });
+    }
     Ok(Decoded {
         image: Image::from_vec(w, h, data)?,
         bit_depth,
