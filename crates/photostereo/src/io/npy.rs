@@ -5,8 +5,8 @@
 //! float64 (masks: bool, uint8, int64, float32, float64; non-zero and not NaN = inside),
 //! in C or Fortran order.
 
-use super::limits::{self, read_bounded};
-use super::write_atomic;
+use super::limits;
+use super::{read_file, write_atomic};
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, Mask, NormalMap};
 use ndarray::{Array2, Array3, ArrayD};
@@ -19,7 +19,7 @@ const FIX: &str = "give the path of an existing .npy file";
 /// file holds exactly the data the header claims (see [`limits`]): `ndarray-npy`
 /// allocates what the shape claims before reading, so a lying header must not reach it.
 fn read_checked(path: &Path) -> Result<Vec<u8>> {
-    let bytes = read_bounded(path, limits::MAX_FILE_BYTES, FIX)?;
+    let bytes = read_file(path, FIX)?;
     check_npy(&bytes).map_err(|message| Error::Decode {
         path: path.to_path_buf(),
         message,
