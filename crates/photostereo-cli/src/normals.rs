@@ -91,10 +91,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
 }
 
 fn read_table(path: &Path) -> anyhow::Result<Table> {
-    let fix = "give the path of a table written by `photostereo calibrate`";
-    let bytes = io::limits::read_bounded(path, io::limits::MAX_FILE_BYTES, fix)?;
-    Table::from_bytes(&bytes)
-        .with_context(|| format!("reading the lookup table {}", path.display()))
+    io::read_table(path).with_context(|| format!("reading the lookup table {}", path.display()))
 }
 
 fn lookup_normals(

@@ -395,7 +395,7 @@ fn output_path_that_is_an_existing_file() {
     assert_refused(
         "output path is an existing file",
         &args,
-        &["existing", "File exists"],
+        &["existing", "is a file, not a directory"],
         &empty,
     );
     assert_eq!(std::fs::read_to_string(&out).unwrap(), "not a directory");

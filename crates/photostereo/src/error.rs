@@ -75,13 +75,11 @@ pub enum Error {
     #[error("{what}: {fix}")]
     InvalidInput { what: String, fix: String },
 
-    /// An error of a step, with what was being done (e.g. a pipeline stage).
-    #[error("{context}: {source}")]
-    Context {
-        context: String,
-        #[source]
-        source: Box<Error>,
-    },
+    /// An error of a step, with what was being done (e.g. a pipeline stage). (`inner`
+    /// is not the error's `source()`: the message already holds it, and printing the
+    /// chain would say it twice.)
+    #[error("{context}: {inner}")]
+    Context { context: String, inner: Box<Error> },
 }
 
 impl Error {
@@ -97,14 +95,14 @@ impl Error {
     pub fn context(self, context: impl Into<String>) -> Self {
         Error::Context {
             context: context.into(),
-            source: Box::new(self),
+            inner: Box::new(self),
         }
     }
 
     /// The innermost error below any [`Error::Context`] wrappers (what to classify by).
     pub fn root(&self) -> &Error {
         match self {
-            Error::Context { source, .. } => source.root(),
+            Error::Context { inner, .. } => inner.root(),
             other => other,
         }
     }

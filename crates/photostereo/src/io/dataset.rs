@@ -447,7 +447,7 @@ pub fn write_dataset(
     if let Some(m) = mask {
         m.check_size(stack.width, stack.height, "mask of the dataset")?;
     }
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    super::create_dir_all(dir)?;
     let digits = stack.k.to_string().len().max(3);
     let names: Vec<String> = (1..=stack.k).map(|i| format!("{i:0digits$}.png")).collect();
     (0..stack.k)
