@@ -98,7 +98,7 @@ fn error_message(err: &anyhow::Error) -> String {
 pub fn check_output_dir(dir: &std::path::Path) -> anyhow::Result<()> {
     if dir.exists() && !dir.is_dir() {
         anyhow::bail!(
-            "{}: exists and is not a directory; give -o a directory (it is created) or remove that file",
+            "{}: is a file, not a directory; give -o a directory (it is created) or a path that does not exist yet",
             dir.display()
         );
     }

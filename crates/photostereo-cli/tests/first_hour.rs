@@ -283,7 +283,7 @@ fn bad_paths_are_named_with_the_fix() {
     let o = photostereo(&["run", "--lambertian"], &[&data, Path::new("-o"), &file]);
     let t = text(&o);
     assert!(
-        !o.status.success() && t.contains("exists and is not a directory"),
+        !o.status.success() && t.contains("is a file, not a directory"),
         "{t}"
     );
     assert!(!t.contains("os error 17): File exists"), "{t}");
