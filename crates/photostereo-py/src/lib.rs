@@ -23,7 +23,7 @@ pub(crate) fn to_py(e: Error) -> PyErr {
     let msg = e.to_string();
     match e.root() {
         Error::NotFound { .. } => PyFileNotFoundError::new_err(msg),
-        Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+        Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => {
             PyFileNotFoundError::new_err(msg)
         }
         Error::Io { .. } => PyOSError::new_err(msg),
