@@ -31,7 +31,10 @@ fn relative_errors(s: &Surface) -> Vec<(Method, f64)> {
 fn check(errs: &[(Method, f64)], fc_bias_min: f64) {
     for &(m, rel) in errs {
         match m {
-            Method::Dct | Method::Lsq | Method::FrankotChellappa { reflect: true } => {
+            Method::Dct
+            | Method::Lsq
+            | Method::Bilateral { .. }
+            | Method::FrankotChellappa { reflect: true } => {
                 assert!(
                     rel < 0.002,
                     "{}: {:.4}% ≥ 0.2% of the range",
