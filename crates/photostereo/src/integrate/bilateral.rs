@@ -36,8 +36,10 @@
 //! numerically. A missing neighbour counts as a zero difference in the weights, as in
 //! the paper's implementation.
 //!
-//! An edge is reported as a discontinuity (and the mesh leaves it out) when both of
-//! its ends have switched it off: w_i + (1 − w_j) < [`CUT`].
+//! An edge (i, j) is reported as a discontinuity (and the mesh leaves it out) when the
+//! solved step disagrees with the gradients of both ends by more than [`CUT`] (in the
+//! scaled units of the equations, about pixels): |a_i (v_j − v_i − g_i)| > CUT and
+//! |a_j (v_j − v_i − g_j)| > CUT.
 
 use super::camera::Camera;
 use super::lsq::Assembled;
@@ -46,10 +48,12 @@ use crate::error::Result;
 use crate::image::{Mask, NormalMap};
 use crate::progress::Progress;
 
-/// Edge-weight sum (of 2) below which an edge counts as a discontinuity.
-pub const CUT: f64 = 0.1;
-/// Relative residual of the inner solves.
-const INNER_TOL: f64 = 1e-4;
+/// Scaled step residual (about pixels) above which an edge counts as a discontinuity.
+pub const CUT: f64 = 1.0;
+/// Relative residual of the inner solves while reweighting (warm-started), and of a
+/// single solve (perspective [`super::Method::Lsq`], where a loose solve would leave
+/// smooth errors).
+const INNER_TOL: (f64, f64) = (1e-4, super::lsq::TOL);
 /// Smallest bilateral weight.
 const WEIGHT_FLOOR: f64 = 1e-6;
 
@@ -249,7 +253,12 @@ pub(crate) fn integrate(
     while out.iterations < params.max_iter.max(1) {
         let mut sys = assemble(f, conf, mask, &wr, &wd);
         sys.pin(comps);
-        out.cg_iterations += sys.solve(&mut v, INNER_TOL, mask)?;
+        let tol = if params.max_iter <= 1 {
+            INNER_TOL.1
+        } else {
+            INNER_TOL.0
+        };
+        out.cg_iterations += sys.solve(&mut v, tol, mask)?;
         out.iterations += 1;
         progress.advance(1);
         let new = reweight(f, conf, mask, &v, params.k, &mut wr, &mut wd);
@@ -261,11 +270,16 @@ pub(crate) fn integrate(
     }
     progress.finish();
     let w = mask.width;
+    // A discontinuity: the solved step disagrees with both ends' own gradients.
+    let off = |i: usize, j: usize, g: &[f64], a: &[f64]| {
+        let dv = v[j] - v[i];
+        (a[i] * (dv - g[i])).abs() > CUT && (a[j] * (dv - g[j])).abs() > CUT
+    };
     out.cut_east = (0..n)
-        .map(|i| neighbours(mask, i)[0] && mask.data[i] && wr[i] + 1.0 - wr[i + 1] < CUT)
+        .map(|i| mask.data[i] && neighbours(mask, i)[0] && off(i, i + 1, &f.g_h, &f.a_h))
         .collect();
     out.cut_south = (0..n)
-        .map(|i| neighbours(mask, i)[2] && mask.data[i] && wd[i] + 1.0 - wd[i + w] < CUT)
+        .map(|i| mask.data[i] && neighbours(mask, i)[2] && off(i, i + w, &f.g_v, &f.a_v))
         .collect();
     out.v = v;
     Ok(out)
