@@ -47,6 +47,7 @@ pub mod lut;
 pub mod mesh;
 pub mod progress;
 pub mod report;
+pub mod spatial;
 pub mod sphere;
 pub mod synth;
 
