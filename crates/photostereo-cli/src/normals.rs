@@ -102,9 +102,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
 }
 
 fn read_table(path: &Path) -> anyhow::Result<Table> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    Table::from_bytes(&bytes)
-        .with_context(|| format!("reading the lookup table {}", path.display()))
+    io::read_table(path).with_context(|| format!("reading the lookup table {}", path.display()))
 }
 
 fn lookup_normals(
