@@ -230,11 +230,14 @@ fn quadratic(
         }
     }
     let mut levels = vec![Level::finest((w, h), m, (&a, &b), lambda, pair_ok)];
-    while solve::has_coarser(levels.last().unwrap().w, levels.last().unwrap().h) {
-        let next = levels.last().unwrap().coarser();
+    while let Some(next) = levels
+        .last()
+        .filter(|l| solve::has_coarser(l.w, l.h))
+        .map(Level::coarser)
+    {
         levels.push(next);
     }
-    let coarsest = levels.last().unwrap();
+    let coarsest = &levels[levels.len() - 1];
     let mut x = coarsest.own();
     let mut iterations = coarsest.solve(&mut x, solve::coarse_iterations());
     for l in (0..levels.len() - 1).rev() {
