@@ -17,7 +17,8 @@ use std::path::{Path, PathBuf};
 photostereo normals data/target --lut sphere.lut -o out\n  \
 photostereo normals data/target --lut diffuse.lut --lut specular.lut -o out\n  \
 photostereo normals data/target --lut sphere.lut --normalize -o out\n  \
-photostereo normals data/target --lambertian -o out\n\n\
+photostereo normals data/target --lambertian -o out\n  \
+photostereo normals data/target --lambertian --lights lights.txt -o out\n\n\
 Writes normals.npy (float32 H×W×3), normals.png, confidence.npy (lookup: 1 = perfect match, \
 low where lights are shadowed or the match is poor), residual.npy, albedo.npy (--normalize or \
 --lambertian) and weights_1.npy, weights_2.npy, weights_sigma.npy (two tables: the mix of \
@@ -51,6 +52,10 @@ pub struct Args {
     /// With --lambertian: plain least squares over all samples (no rejection).
     #[arg(long, requires = "lambertian")]
     plain: bool,
+    /// With --lambertian: light directions file (K lines `x y z`) instead of
+    /// TARGET_DIR/light_directions.txt.
+    #[arg(long, value_name = "FILE", requires = "lambertian")]
+    lights: Option<PathBuf>,
     /// Keep every pixel's own normal: no spatial stage (by default pixels whose data say
     /// little about their normal take it from their neighbours; see `photostereo::spatial`).
     #[arg(long)]
@@ -76,7 +81,7 @@ struct Results {
 /// Run the subcommand.
 pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     let load = io::LoadOptions {
-        require_lights: args.lambertian,
+        require_lights: args.lambertian && args.lights.is_none(),
         mask_path: args.mask.clone(),
         require_mask: args.mask.is_some(),
         ..io::LoadOptions::default()
@@ -90,7 +95,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         Mask::full(data.stack.width, data.stack.height)
     });
     let results = if args.lambertian {
-        lambertian_normals(&data, &mask, args.plain, !args.no_spatial, global)?
+        lambertian_normals(&data, &mask, &args, global)?
     } else {
         lookup_normals(&args, &data.stack, &mask, global)?
     };
@@ -228,15 +233,18 @@ fn spatial_stage(
 fn lambertian_normals(
     data: &io::Dataset,
     mask: &Mask,
-    plain: bool,
-    spatial_stage: bool,
+    args: &Args,
     global: Global,
 ) -> anyhow::Result<Results> {
-    let lights = data
-        .lights
+    let from_file = match &args.lights {
+        Some(file) => Some(crate::lights::read_lights_option(file, data.stack.k)?),
+        None => None,
+    };
+    let lights = from_file
         .as_ref()
-        .context("--lambertian needs TARGET_DIR/light_directions.txt")?;
-    let opts = if plain {
+        .or(data.lights.as_ref())
+        .context("--lambertian needs TARGET_DIR/light_directions.txt or --lights FILE")?;
+    let opts = if args.plain {
         lambertian::Options::plain()
     } else {
         lambertian::Options::default()
@@ -254,7 +262,7 @@ fn lambertian_normals(
         &out.albedo,
         &noise,
     );
-    let (normals, sigma, extra) = if spatial_stage {
+    let (normals, sigma, extra) = if !args.no_spatial {
         let sp = spatial::solve(&ev, mask, &spatial::Options::default())
             .context("spatial stage after the Lambertian solve")?;
         if !global.quiet {

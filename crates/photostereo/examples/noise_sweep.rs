@@ -339,9 +339,10 @@ fn sweep(png: &str) -> anyhow::Result<()> {
         x_label: "noise (% of full scale)".into(),
         y_label: "mean angular error (deg)".into(),
         series,
-        size: (900, 600),
+        ref_lines: Vec::new(),
+        y_log: true,
     };
-    std::fs::write(png, plot.to_png()?)?;
+    std::fs::write(png, plot.to_png((900, 600))?)?;
     std::fs::write(std::path::Path::new(png).with_extension("csv"), csv)?;
     println!("wrote {png} and its .csv");
     Ok(())
