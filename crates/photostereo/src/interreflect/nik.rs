@@ -19,6 +19,15 @@
 //! interreflections, where every compensation over-corrects) the run stops at the maximum,
 //! says so in [`Convergence`], and [`NikOutput::best`] points at the iterate with the
 //! smallest fit residual.
+//!
+//! The residual is no check of the image scale: one bounce under a directional light is
+//! linear in the light direction wherever every light sees every facet, so plain
+//! photometric stereo fits it with no residual (a bowl: < 1e-4 at every iterate); only
+//! attached shadows (a groove's walls) make it informative. With images off by a factor f
+//! the iteration removes f times the right bounced light and converges to a wrong depth
+//! (bowl: 0.94 of the truth at f = 0.5, 1.21 at f = 2); see `docs/interreflection-scale.md`
+//! for the table and the evidence for keeping the residual-based choice, and
+//! [`NikOptions::scale_known`].
 
 use super::radiosity::Model;
 use super::RadiosityOptions;
@@ -42,6 +51,13 @@ pub struct NikOptions {
     pub lambertian: lambertian::Options,
     /// Integration used at every step (default: masked least squares).
     pub integrate: integrate::Options,
+    /// Whether the caller knows that `raw` is in radiance units (a white Lambertian surface
+    /// facing a unit light reads 1): calibrated intensities, an image scale given by the
+    /// user or read from the dataset. The iteration cannot check it — the bounced light it
+    /// removes is proportional to the absolute albedo, so the recovered depth follows any
+    /// error in the scale (table in `docs/interreflection-scale.md`). It is only echoed in
+    /// [`NikOutput::scale_known`] so that front ends can warn; default `false`.
+    pub scale_known: bool,
 }
 
 impl Default for NikOptions {
@@ -57,6 +73,7 @@ impl Default for NikOptions {
                 ..lambertian::Options::default()
             },
             integrate: integrate::Options::default(),
+            scale_known: false,
         }
     }
 }
@@ -153,6 +170,10 @@ pub struct NikOutput {
     pub best: usize,
     /// How the iteration ended.
     pub convergence: Convergence,
+    /// [`NikOptions::scale_known`]: `false` when nobody said that the images are in
+    /// radiance units; the depth then depends on that unknown factor and should be reported
+    /// as such.
+    pub scale_known: bool,
 }
 
 impl NikOutput {
@@ -262,6 +283,7 @@ pub fn iterate(
         iterations,
         best,
         convergence,
+        scale_known: opts.scale_known,
     })
 }
 
