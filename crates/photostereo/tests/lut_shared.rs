@@ -11,22 +11,11 @@ use photostereo::io::{self, LoadOptions};
 use photostereo::lut::{self, BuildOptions, Method, Options, Output, Table};
 use photostereo::progress::NoProgress;
 use photostereo::sphere::{self, Circle, DetectOptions};
-use std::path::{Path, PathBuf};
 
-/// `<workspace>/../shared/data`, or `/work/shared/data` (worktrees live elsewhere).
-fn shared_data() -> Option<PathBuf> {
-    let near = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    [near, PathBuf::from("/work/shared/data")]
-        .into_iter()
-        .find(|p| p.is_dir())
-}
+mod shared_data;
 
-fn dataset(rel: &str) -> Option<io::Dataset> {
-    let dir = shared_data().map(|d| d.join(rel)).filter(|d| d.is_dir());
-    let Some(dir) = dir else {
-        eprintln!("note: shared data `{rel}` not found; skipping this test");
-        return None;
-    };
+fn dataset(test: &str, rel: &str) -> Option<io::Dataset> {
+    let dir = shared_data::path(test, &format!("data/{rel}"))?;
     Some(io::load_dataset(&dir, &LoadOptions::default()).unwrap())
 }
 
@@ -222,8 +211,8 @@ fn table(stack: &ImageStack, circle: &Circle) -> Table {
 fn mitsuba_renders_by_band() {
     for material in ["diffuse", "roughplastic"] {
         let (Some(calib), Some(target)) = (
-            dataset(&format!("calib_{material}")),
-            dataset(&format!("target_{material}")),
+            dataset("mitsuba_renders_by_band", &format!("calib_{material}")),
+            dataset("mitsuba_renders_by_band", &format!("target_{material}")),
         ) else {
             return;
         };
@@ -281,7 +270,7 @@ fn mitsuba_renders_by_band() {
 /// pixels whose centre lies ≥ 0.71 px inside it (no background in the footprint).
 #[test]
 fn diligent_ball_rescaled_by_band() {
-    let Some(ball) = dataset("real/diligent_ball") else {
+    let Some(ball) = dataset("diligent_ball_rescaled_by_band", "real/diligent_ball") else {
         return;
     };
     let circle = Circle {

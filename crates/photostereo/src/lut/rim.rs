@@ -302,7 +302,7 @@ fn solve3(m: &[f64; 6], b: &[f64; 3]) -> Option<[f64; 3]> {
         - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
         + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
     let scale = m[0] + m[3] + m[5];
-    if !(det.abs() > 1e-12 * scale.powi(3)) {
+    if det.is_nan() || det.abs() <= 1e-12 * scale.powi(3) {
         return None;
     }
     let col = |j: usize| -> f64 {
