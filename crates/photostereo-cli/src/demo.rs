@@ -34,6 +34,7 @@ pub struct Args {
 
 /// Run the subcommand.
 pub fn run(args: Args, global: Global) -> Result<()> {
+    crate::check_output_dir(&args.out)?;
     anyhow::ensure!(
         (32..=2048).contains(&args.size),
         "--size {} is out of range: use 32 to 2048 pixels",
