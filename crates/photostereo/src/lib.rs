@@ -58,3 +58,8 @@ pub mod synth;
 
 pub use error::{Error, Result};
 pub use image::{DepthMap, GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
+
+/// The README's Rust code, compiled and run by `cargo test --doc` so that it stays true.
+#[doc = include_str!("../../../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;
