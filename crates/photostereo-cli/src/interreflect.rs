@@ -71,6 +71,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             },
             ..Default::default()
         },
+        scale_known: scale_is_known(&args.dataset, args.image_scale, true)?,
         ..Default::default()
     };
     let out = interreflect::solve(&data.stack, &mask, &lights, &nik, &Bar::new(global.quiet))
@@ -126,6 +127,16 @@ pub(crate) fn radiance_scale(
         anyhow::bail!("--image-scale {scale}: use a finite factor > 0");
     }
     Ok(scale)
+}
+
+/// Whether [`radiance_scale`] knows the factor (`--image-scale`, or with `use_meta` a
+/// meta.json scale) rather than assuming 1: [`NikOptions::scale_known`].
+pub(crate) fn scale_is_known(
+    dir: &Path,
+    given: Option<f32>,
+    use_meta: bool,
+) -> anyhow::Result<bool> {
+    Ok(given.is_some() || (use_meta && meta_scale(dir)?.is_some()))
 }
 
 /// `65535 / scale` from the dataset's meta.json (Mitsuba renders store 16-bit = radiance × scale).

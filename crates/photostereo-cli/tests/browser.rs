@@ -2,7 +2,12 @@
 //! screenshot and check that the surface was drawn and that no script reported an error.
 //!
 //! Needs `chromium` (Debian package; `.ci/run` installs it) or a browser named by
-//! `PHOTOSTEREO_CHROMIUM`. Where none is found the tests print `SKIP` and why, and pass.
+//! `PHOTOSTEREO_CHROMIUM`. Where none is found the tests are skipped (a `SKIP` line and a
+//! marker that `.ci/run` counts, see `shared_data`), or fail under
+//! `PHOTOSTEREO_REQUIRE_BROWSER=1`.
+
+#[path = "../../photostereo/tests/shared_data/mod.rs"]
+mod shared_data;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -14,6 +19,20 @@ use photostereo::report::{raster::ColorMap, Report};
 const WINDOW: (u32, u32) = (1280, 900);
 /// Background of the 3-D view (#1b1e24 in the page's style and the viewer's scene).
 const VIEW_BG: [u8; 3] = [0x1b, 0x1e, 0x24];
+
+/// The browser for `test`, or `None`: a skip (see `shared_data`), or a failure under
+/// `PHOTOSTEREO_REQUIRE_BROWSER=1` (set by `.ci/run`).
+fn browser(test: &str) -> Option<PathBuf> {
+    let found = chromium();
+    if found.is_none() {
+        shared_data::skip(
+            test,
+            "no chromium found (apt-get install chromium, or set PHOTOSTEREO_CHROMIUM)",
+            "PHOTOSTEREO_REQUIRE_BROWSER",
+        );
+    }
+    found
+}
 
 fn chromium() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("PHOTOSTEREO_CHROMIUM") {
@@ -243,8 +262,7 @@ fn check_rendered(seen: &Seen, what: &str) {
 
 #[test]
 fn synthetic_report_shows_a_shaded_surface_without_errors() {
-    let Some(browser) = chromium() else {
-        eprintln!("SKIP browser test: no chromium found (apt-get install chromium, or set PHOTOSTEREO_CHROMIUM)");
+    let Some(browser) = browser("synthetic_report_shows_a_shaded_surface_without_errors") else {
         return;
     };
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
@@ -278,8 +296,7 @@ fn synthetic_report_shows_a_shaded_surface_without_errors() {
 /// The README's first command: `photostereo demo`, then both of its reports in the browser.
 #[test]
 fn demo_reports_show_shaded_surfaces_without_errors() {
-    let Some(browser) = chromium() else {
-        eprintln!("SKIP browser test: no chromium found (apt-get install chromium, or set PHOTOSTEREO_CHROMIUM)");
+    let Some(browser) = browser("demo_reports_show_shaded_surfaces_without_errors") else {
         return;
     };
     let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("demo");
@@ -298,32 +315,21 @@ fn demo_reports_show_shaded_surfaces_without_errors() {
     }
 }
 
-/// `../shared` beside the repository (or `PHOTOSTEREO_SHARED`), where the real photographs are.
-fn shared_dir() -> Option<PathBuf> {
-    let p = match std::env::var_os("PHOTOSTEREO_SHARED") {
-        Some(p) => PathBuf::from(p),
-        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"),
-    };
-    p.join("data/real/buddha").is_dir().then_some(p)
-}
-
 /// Real photographs: Lambertian photometric stereo with lights calibrated from the chrome
 /// sphere gives a surface that the report draws.
 #[test]
 fn real_buddha_report_shows_a_shaded_surface_without_errors() {
-    let Some(browser) = chromium() else {
-        eprintln!("SKIP browser test: no chromium found (apt-get install chromium, or set PHOTOSTEREO_CHROMIUM)");
+    let Some(browser) = browser("real_buddha_report_shows_a_shaded_surface_without_errors") else {
         return;
     };
-    let Some(shared) = shared_dir() else {
-        eprintln!(
-            "SKIP real-photograph test: ../shared/data/real not found (set PHOTOSTEREO_SHARED)"
-        );
+    let Some(real) = shared_data::path(
+        "real_buddha_report_shows_a_shaded_surface_without_errors",
+        "data/real",
+    ) else {
         return;
     };
     let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("buddha");
     let _ = std::fs::remove_dir_all(&out);
-    let real = shared.join("data/real");
     let status = Command::new(env!("CARGO_BIN_EXE_photostereo"))
         .args(["--quiet", "run", "--lambertian", "--chrome"])
         .arg(real.join("chrome"))

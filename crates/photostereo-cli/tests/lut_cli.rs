@@ -175,10 +175,11 @@ fn lookup_matches_the_ground_truth(data: &Path, lut: &Path, gt: &NormalMap, mask
     // A radius-40 table of a 16-bit render: sub-pixel-spacing accuracy inside the table's
     // range; the whole-mask mean is held up by the blob's grazing rim (normals within a few
     // degrees of 90°, beyond the table's 2 px rim), which gets low confidence.
-    assert!(med < 0.1, "median {med}°");
+    // measured: median 0.020°, mean 0.472°, confident 0.051° (2393 of 2528 pixels)
+    assert!(med < 0.06, "median {med}°");
     assert!(all < 0.75, "whole-mask mean {all}°");
     assert!(confident.len() * 10 >= err.len() * 9, "≥ 90% confident");
-    assert!(trusted < 0.2, "mean over confident pixels {trusted}°");
+    assert!(trusted < 0.15, "mean over confident pixels {trusted}°");
 }
 
 /// Lambertian least squares on the same shiny target: with the rejection of shadowed and
@@ -243,7 +244,8 @@ fn lambertian_normals_and_albedo_of_a_matte_target() {
     println!("matte blob: worst normal error {worst:.4}°, worst albedo error {albedo_err:.2e}");
     // a noise-free 16-bit Lambertian render: only quantisation remains
     assert!(worst < 0.05, "worst error {worst}°");
-    assert!(albedo_err < 1e-3, "albedo error {albedo_err}");
+    // measured 0.028° and 2.6e-5
+    assert!(albedo_err < 1e-4, "albedo error {albedo_err}");
 }
 
 /// Error, message containing every one of `needles`, and none of `absent` written.

@@ -142,8 +142,9 @@ fn lambertian_with_every_optional_file_and_without_each() {
     run_ok(&["--lambertian"], &data, &out);
     let biased = mean_error(&out);
     println!("without light_intensities.txt: {biased:.3}°");
+    // measured 7.68° (0.000° with the intensities)
     assert!(
-        biased > full + 1.0,
+        biased > 3.0 && biased > full + 1.0,
         "ignoring the intensities should hurt: {biased}° vs {full}°"
     );
 

@@ -22,7 +22,7 @@ fn centre_minus_rim(depth: &[f64], w: usize, h: usize, mask: &Mask) -> f64 {
 }
 
 #[test]
-fn sphere_cap_is_convex_for_every_method_within_2_percent() {
+fn sphere_cap_is_convex_for_every_method_within_0p02_percent() {
     let (w, h) = (96, 80);
     let s = sphere_cap(w, h, 0.8 * w as f64, (0.0, 0.0), Mask::full(w, h));
     let truth = centre_minus_rim(&s.depth, w, h, &s.mask);
@@ -32,12 +32,13 @@ fn sphere_cap_is_convex_for_every_method_within_2_percent() {
         let got: Vec<f64> = out.depth.data.iter().map(|&v| v as f64).collect();
         let bump = centre_minus_rim(&got, w, h, &s.mask);
         println!(
-            "{:>10}: centre − rim {bump:.3} (truth {truth:.3})",
+            "{:>10}: centre − rim {bump:.5} (truth {truth:.5})",
             m.name()
         );
         assert!(bump > 0.0, "{}: concave ({bump})", m.name());
+        // measured: 18.96913 (path) and 18.96915 against 18.96773, 7.5e-5 of the truth
         assert!(
-            (bump - truth).abs() < 0.02 * truth,
+            (bump - truth).abs() < 2e-4 * truth,
             "{}: {bump} vs {truth}",
             m.name()
         );

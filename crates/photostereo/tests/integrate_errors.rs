@@ -35,9 +35,9 @@ fn nan_and_grazing_normals_are_clamped_counted_and_depth_stays_finite() {
         );
         // Four bad normals barely change a 4800-pixel surface for the least-squares
         // methods; a path carries a clamped slope (up to 1/min_nz) along a whole line.
-        if m != Method::Path {
-            assert!(rel < 0.01, "{}: {rel}", m.name());
-        }
+        // measured: path 1.75 %, fc 0.37 %, the others 0.63 %
+        let bound = if m == Method::Path { 0.05 } else { 0.01 };
+        assert!(rel < bound, "{}: {rel}", m.name());
     }
 }
 

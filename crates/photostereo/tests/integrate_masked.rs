@@ -54,10 +54,15 @@ fn hole_and_two_parts_lsq_below_0p5_percent_fc_clearly_worse() {
         100.0 * e_fc,
         100.0 * e_dct
     );
-    assert!(e_lsq < 0.005, "lsq {:.4}%", 100.0 * e_lsq);
+    // measured: lsq 0.0013 %, fc 12.65 %, dct 6.77 % of the range
+    assert!(e_lsq < 4e-5, "lsq {:.4}%", 100.0 * e_lsq);
     assert!(
-        e_fc > 10.0 * e_lsq,
+        e_fc > 0.05 && e_fc > 10.0 * e_lsq,
         "fc {e_fc} not clearly worse than lsq {e_lsq}"
+    );
+    assert!(
+        e_dct > 0.03 && e_dct > 10.0 * e_lsq,
+        "dct {e_dct} not clearly worse than lsq {e_lsq}"
     );
     // NaN outside the mask, finite inside, each part centred on 0.
     for (d, &m) in lsq.depth.data.iter().zip(&s.mask.data) {

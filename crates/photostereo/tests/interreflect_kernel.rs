@@ -57,8 +57,9 @@ fn horizon_matches_brute_force_on_a_trough_with_occlusion() {
         "the trough must have occluded pairs, found {occ_b}"
     );
     assert!(ignore > 0.05, "visibility should matter here ({ignore})");
+    // measured 0.0066 (no visibility: 0.1199)
     assert!(
-        err < 0.03,
+        err < 0.02,
         "horizon bounced light differs by {err} from brute force"
     );
 }
@@ -70,8 +71,9 @@ fn horizon_matches_brute_force_on_a_bowl() {
     let (fast, _) = bounced(&shape, Visibility::Horizon { azimuths: 64 }, 1);
     let err = rel_l1(&fast, &brute);
     println!("bowl 48x48: horizon vs brute force {err:.5}");
+    // measured < 0.000005: nothing in a bowl is hidden, both find every pair visible
     assert!(
-        err < 0.03,
+        err < 1e-4,
         "horizon bounced light differs by {err} from brute force"
     );
 }
@@ -83,8 +85,9 @@ fn coarse_facets_match_per_pixel_facets_on_a_bowl() {
     let (coarse, _) = bounced(&shape, Visibility::Horizon { azimuths: 64 }, 2);
     let err = rel_l1(&coarse, &fine);
     println!("bowl 64x64: block 2 vs block 1 bounced light {err:.4}");
+    // measured 0.0017
     assert!(
-        err < 0.03,
+        err < 0.005,
         "block-2 bounced light differs by {err} from block 1"
     );
 }
@@ -134,6 +137,8 @@ fn a_spherical_cavity_receives_uniform_first_bounce() {
         println!(
             "spherical cavity, block {block}: worst relative error of the first bounce {worst:.4}"
         );
-        assert!(worst < 0.02, "block {block}: first bounce off by {worst}");
+        // measured 0.0008 (block 1), 0.0028 (block 2)
+        let bound = if block == 1 { 0.0025 } else { 0.008 };
+        assert!(worst < bound, "block {block}: first bounce off by {worst}");
     }
 }

@@ -14,6 +14,13 @@ use std::cell::Cell;
 /// A "reconstruction" that ignores the images and returns a bowl whose depth alternates
 /// between two values (with a slowly shrinking swing): it never settles.
 fn oscillating_run(max_iter: usize) -> (photostereo::interreflect::NikOutput, Mask) {
+    oscillating_run_with(max_iter, false)
+}
+
+fn oscillating_run_with(
+    max_iter: usize,
+    scale_known: bool,
+) -> (photostereo::interreflect::NikOutput, Mask) {
     let (w, h) = (40, 40);
     let mask = Mask::full(w, h);
     let (_, n) = sample(w, h, bowl(16.0, 6.0));
@@ -37,6 +44,7 @@ fn oscillating_run(max_iter: usize) -> (photostereo::interreflect::NikOutput, Ma
     };
     let opts = NikOptions {
         max_iter,
+        scale_known,
         tol: 0.01,
         ..Default::default()
     };
@@ -112,4 +120,13 @@ fn interreflections_need_a_lambertian_material() {
     let err = photostereo::interreflect::render_with_interreflections(&opts, &Default::default())
         .unwrap_err();
     assert!(err.to_string().contains("Lambertian"), "{err}");
+}
+
+/// The library cannot know whether the images are in radiance units; it echoes what the
+/// caller says, for front ends to warn (default: not known).
+#[test]
+fn whether_the_image_scale_is_known_is_echoed() {
+    assert!(!NikOptions::default().scale_known);
+    assert!(!oscillating_run_with(1, false).0.scale_known);
+    assert!(oscillating_run_with(1, true).0.scale_known);
 }

@@ -76,12 +76,13 @@ fn bowl_concavity_and_albedo_are_recovered() {
         raw_ratio < 0.95,
         "raw concavity should be noticeably shallow, got {raw_ratio}"
     );
+    // measured: raw 0.897, kept 1.004, albedo 0.8002
     assert!(
-        (ratio - 1.0).abs() < 0.03,
+        (ratio - 1.0).abs() < 0.012,
         "concavity after iterations {ratio}"
     );
     assert!(
-        (albedo / 0.8 - 1.0).abs() < 0.03,
+        (albedo / 0.8 - 1.0).abs() < 0.003,
         "albedo after iterations {albedo}"
     );
     assert!(matches!(out.convergence, Convergence::Converged { .. }));
@@ -142,16 +143,17 @@ fn vgroove_depth_angle_and_albedo_are_recovered() {
     let ratio = best.depth_range as f64 / depth;
     let got_angle = groove_angle(&best.shape.normals, size, half);
     let albedo = mean_over(&best.shape.albedo, &walls);
+    // measured: raw 0.701, kept 1.003, angle 89.93°, albedo 0.7998
     assert!(
-        (ratio - 1.0).abs() < 0.03,
+        (ratio - 1.0).abs() < 0.01,
         "concavity after iterations {ratio}"
     );
     assert!(
-        (got_angle - angle).abs() < 2.0,
+        (got_angle - angle).abs() < 0.3,
         "angle after iterations {got_angle}"
     );
     assert!(
-        (albedo / 0.8 - 1.0).abs() < 0.03,
+        (albedo / 0.8 - 1.0).abs() < 0.003,
         "albedo after iterations {albedo}"
     );
 }
@@ -179,6 +181,16 @@ fn a_convex_sphere_is_left_unchanged() {
         change < 0.01,
         "the iteration moved a convex sphere by {change} px"
     );
+    // The whole history: no iterate differs from the raw one by 1 % in depth or albedo.
+    for (t, it) in out.iterations.iter().enumerate() {
+        let dz = it.depth_range / raw.depth_range - 1.0;
+        let da = it.mean_albedo / raw.mean_albedo - 1.0;
+        assert!(
+            dz.abs() < 0.01 && da.abs() < 0.01 && (t == 0 || it.relative_change < 0.01),
+            "iterate {t}: depth {dz:+.2e}, albedo {da:+.2e}, change {}",
+            it.relative_change
+        );
+    }
 }
 
 #[test]
@@ -269,9 +281,11 @@ fn without_convergence_it_stops_at_the_maximum_and_keeps_the_best_iterate() {
         .fold((f32::INFINITY, f32::NEG_INFINITY), |a, (z, _)| {
             (a.0.min(*z), a.1.max(*z))
         });
+    let kept = (ratio.1 - ratio.0) / depth as f32;
     println!(
-        "non-converging run: {} (kept concavity {:.3} of truth)",
-        out.summary(),
-        (ratio.1 - ratio.0) / depth as f32
+        "non-converging run: {} (kept concavity {kept:.3} of truth)",
+        out.summary()
     );
+    // measured 1.013 (iterate 3)
+    assert!((kept - 1.0).abs() < 0.04, "kept concavity {kept}");
 }

@@ -154,7 +154,9 @@ fn vgroove_matches_crossed_strings_reference_per_pixel_facets() {
     };
     let (max_err, mean_err) = compare(&groove, &opts, 0.8);
     println!("V-groove 90°, block 1: max rel err {max_err:.4}, mean {mean_err:.4}");
-    assert!(max_err < 0.02, "max relative error {max_err}");
+    // measured 0.0059 (mean 0.0012)
+    assert!(max_err < 0.015, "max relative error {max_err}");
+    assert!(mean_err < 0.004, "mean relative error {mean_err}");
 }
 
 #[test]
@@ -173,5 +175,7 @@ fn vgroove_matches_reference_with_coarse_facets() {
     };
     let (max_err, mean_err) = compare(&groove, &opts, 0.8);
     println!("V-groove 60°, block 2: max rel err {max_err:.4}, mean {mean_err:.4}");
-    assert!(max_err < 0.02, "max relative error {max_err}");
+    // measured 0.0196 (mean 0.0048)
+    assert!(max_err < 0.03, "max relative error {max_err}");
+    assert!(mean_err < 0.012, "mean relative error {mean_err}");
 }

@@ -1,29 +1,21 @@
-//! The shared real photographs and Mitsuba renders load. Each test prints a note and
-//! passes when the shared data directory is absent (e.g. on a clean CI checkout).
+//! The shared real photographs and Mitsuba renders load. Each test is skipped (visibly:
+//! see `shared_data`) when the shared data folder is absent, and fails when it is there
+//! but a dataset in it is missing or unreadable.
+
+mod shared_data;
 
 use photostereo::eval::angular_errors;
 use photostereo::io::{self, LoadOptions};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-/// `<workspace>/../shared/data`, or `/work/shared/data` (worktrees live elsewhere).
-fn shared_data() -> Option<PathBuf> {
-    let near = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    [near, PathBuf::from("/work/shared/data")]
-        .into_iter()
-        .find(|p| p.is_dir())
-}
-
-fn dataset(rel: &str) -> Option<PathBuf> {
-    let dir = shared_data().map(|d| d.join(rel)).filter(|d| d.is_dir());
-    if dir.is_none() {
-        eprintln!("note: shared data `{rel}` not found; skipping this test");
-    }
-    dir
+/// `data/<rel>` of the shared folder for the test `test`.
+fn dataset(test: &str, rel: &str) -> Option<PathBuf> {
+    shared_data::path(test, &format!("data/{rel}"))
 }
 
 #[test]
 fn real_buddha_loads() {
-    let Some(dir) = dataset("real/buddha") else {
+    let Some(dir) = dataset("real_buddha_loads", "real/buddha") else {
         return;
     };
     let ds = io::load_dataset(&dir, &LoadOptions::default()).unwrap();
@@ -55,7 +47,7 @@ fn real_buddha_loads() {
 
 #[test]
 fn real_chrome_loads_without_lights() {
-    let Some(dir) = dataset("real/chrome") else {
+    let Some(dir) = dataset("real_chrome_loads_without_lights", "real/chrome") else {
         return;
     };
     let ds = io::load_dataset(&dir, &LoadOptions::default()).unwrap();
@@ -76,7 +68,7 @@ fn real_chrome_loads_without_lights() {
 
 #[test]
 fn mitsuba_render_loads_as_16_bit() {
-    let Some(dir) = dataset("target_roughplastic") else {
+    let Some(dir) = dataset("mitsuba_render_loads_as_16_bit", "target_roughplastic") else {
         return;
     };
     let ds = io::load_dataset(&dir, &LoadOptions::default()).unwrap();

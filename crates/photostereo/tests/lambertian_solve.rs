@@ -83,7 +83,9 @@ fn shiny_target_outlier_rejection_halves_the_error() {
     let scene = render(&opts).unwrap();
     let (robust, er, ep) = robust_and_plain(&scene);
     println!("shiny plastic blob, K=48, 0.5% noise: robust {er:.3}°, plain least squares {ep:.3}° (ratio {:.1}x)", ep / er);
-    assert!(2.0 * er < ep, "robust {er:.3}° vs plain {ep:.3}°");
+    // measured: robust 0.308°, plain 5.462° (17.7×)
+    assert!(er < 0.6, "robust {er:.3}°");
+    assert!(6.0 * er < ep, "robust {er:.3}° vs plain {ep:.3}°");
     let used = robust
         .used_lights
         .data
@@ -91,9 +93,12 @@ fn shiny_target_outlier_rejection_halves_the_error() {
         .zip(&scene.mask.data)
         .filter(|(_, &m)| m);
     let (s, n) = used.fold((0usize, 0usize), |(s, n), (u, _)| (s + *u as usize, n + 1));
-    println!(
-        "mean lights used per pixel: {:.1} of 48",
-        s as f64 / n as f64
+    let mean_used = s as f64 / n as f64;
+    println!("mean lights used per pixel: {mean_used:.1} of 48");
+    // measured 37.6: highlights and shadows rejected, most lights kept
+    assert!(
+        (30.0..44.0).contains(&mean_used),
+        "mean lights used {mean_used:.1}"
     );
 }
 

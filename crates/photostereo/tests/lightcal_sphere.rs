@@ -1,6 +1,7 @@
 //! Light calibration from synthetic matte and chrome spheres with known lights, and
 //! from the real chrome sphere against the published directions.
 
+mod shared_data;
 mod sphere_support;
 
 use photostereo::error::Error;
@@ -45,7 +46,7 @@ fn matte_sphere_within_half_a_degree() {
     let lights = from_matte_sphere(&scene.stack, &circle, &MatteOptions::default()).unwrap();
     let e = errors(&lights.directions, &opts.lights.directions);
     let max = summary("matte sphere, detected circle, 1% noise", &e);
-    assert!(max < 0.5);
+    assert!(max < 0.09, "worst light {max}°"); // measured 0.029° (mean 0.018°)
     for i in &lights.intensities {
         assert!((i - 1.0).abs() < 0.01, "relative intensity {i}");
     }
@@ -83,7 +84,7 @@ fn chrome_sphere_within_one_degree() {
         );
     }
     let max = summary("chrome sphere (GGX α 0.03), 0.5% noise", &e);
-    assert!(max < 1.0);
+    assert!(max < 0.16, "worst light {max}°"); // measured 0.053° (mean 0.032°)
 }
 
 #[test]
@@ -107,7 +108,7 @@ fn mirror_sphere_raster_within_one_degree() {
     let stack = render(&scene);
     let (found, _) = from_chrome_sphere(&stack, &scene.circle, &ChromeOptions::default()).unwrap();
     let max = summary("ideal mirror sphere", &errors(&found.directions, &lights));
-    assert!(max < 1.0);
+    assert!(max < 0.6, "worst light {max}°"); // measured 0.224° (mean 0.145°)
 }
 
 #[test]
@@ -146,11 +147,11 @@ fn black_sphere_images_are_refused() {
 /// directions (`lights_published.txt`, the course's own chrome-sphere estimate).
 #[test]
 fn real_chrome_sphere_against_published_lights() {
-    let Some(shared) = sphere_support::shared_dir() else {
-        println!("skipped: ../shared not found");
+    let test = "real_chrome_sphere_against_published_lights";
+    let Some(real) = shared_data::path(test, "data/real") else {
         return;
     };
-    let dir = shared.join("data/real/chrome");
+    let dir = real.join("chrome");
     let stack = sphere_support::load_png_dir(&dir);
     let mask = photostereo::io::read_mask(&dir.join("mask.png")).unwrap();
     let det = DetectOptions {
@@ -165,7 +166,7 @@ fn real_chrome_sphere_against_published_lights() {
     );
     let (lights, highlights) =
         from_chrome_sphere(&stack, &circle, &ChromeOptions::default()).unwrap();
-    let text = std::fs::read_to_string(shared.join("data/real/lights_published.txt")).unwrap();
+    let text = shared_data::read_text(&real.join("lights_published.txt"));
     let published: Vec<[f32; 3]> = text
         .lines()
         .filter(|l| !l.trim().is_empty())
@@ -191,7 +192,10 @@ fn real_chrome_sphere_against_published_lights() {
     }
     let mean = e.iter().sum::<f64>() / e.len() as f64;
     summary("real chrome vs published", &e);
-    assert!(mean < 10.0, "mean angle to the published lights {mean:.2}°");
+    // measured 3.04°, worst light 8.5°
+    assert!(mean < 6.0, "mean angle to the published lights {mean:.2}°");
+    let worst = e.iter().copied().fold(0.0, f64::max);
+    assert!(worst < 17.0, "worst light {worst:.2}°");
     // the same with the circle detected in the images (contrast edges of the rim)
     let found = detect(&stack, &DetectOptions::default()).unwrap().circle;
     let (from_images, _) = from_chrome_sphere(&stack, &found, &ChromeOptions::default()).unwrap();
@@ -206,8 +210,11 @@ fn real_chrome_sphere_against_published_lights() {
     );
     summary("real chrome vs published, circle from the images", &e2);
     let mean2 = e2.iter().sum::<f64>() / e2.len() as f64;
+    // measured 2.73°, worst light 8.4°
     assert!(
-        mean2 < 10.0,
+        mean2 < 5.5,
         "mean angle to the published lights {mean2:.2}°"
     );
+    let worst2 = e2.iter().copied().fold(0.0, f64::max);
+    assert!(worst2 < 17.0, "worst light {worst2:.2}°");
 }

@@ -107,6 +107,7 @@ fn refined_lookup_goes_below_the_sphere_pixel_spacing() {
 fn noisy_shiny_target_stays_accurate() {
     let (mut target, mask, truth) = bumps(128, &lights(16), SHINY, &|_, _| 1.0);
     add_noise(&mut target, 0.01, 11);
+    let mut sweep = Vec::new();
     for sm in [Some(0.0), Some(0.7), Some(1.0), Some(1.5), None] {
         let t = table_smooth(SHINY, 16, 0.01, sm);
         let e = errors(
@@ -122,7 +123,25 @@ fn noisy_shiny_target_stays_accurate() {
             &mask,
         );
         println!("smooth {sm:?}: noisy {:.3}°  clean {:.3}°", e.0, c.0);
+        sweep.push((e.0, c.0));
     }
+    // The automatic smoothing (None) is as good as the best fixed choice on the noisy table
+    // and on the clean one; no smoothing of the noisy table doubles the error.
+    // measured (noisy, clean): 0 → 1.096°, 0.008°; 0.7 → 0.579°, 0.029°;
+    // 1.0 → 0.522°, 0.050°; 1.5 → 0.509°, 0.105°; automatic → 0.509°, 0.008°
+    let (auto_noisy, auto_clean) = sweep[4];
+    let best_noisy = sweep[..4].iter().map(|s| s.0).fold(f64::INFINITY, f64::min);
+    let best_clean = sweep[..4].iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
+    assert!(
+        auto_noisy < 1.05 * best_noisy && auto_clean < 1.05 * best_clean + 0.002,
+        "automatic smoothing {auto_noisy:.3}° / {auto_clean:.3}° vs best fixed {best_noisy:.3}° / {best_clean:.3}°"
+    );
+    assert!(auto_clean < 0.025, "clean table {auto_clean:.3}°");
+    assert!(
+        sweep[0].0 > 1.5 * auto_noisy,
+        "no smoothing {:.3}° vs automatic {auto_noisy:.3}°",
+        sweep[0].0
+    );
     let t = table(SHINY, 16, 0.01);
     let out = solve(
         &target,
@@ -161,7 +180,8 @@ fn textured_albedo_with_normalised_matching() {
         .map(|i| (alb.data[i] - albedo(i / 128, i % 128)).abs())
         .fold(0.0f32, f32::max);
     println!("textured matte albedo, normalised: mean {mean:.4}°, worst albedo error {worst:.4}");
-    assert!(mean < 0.5 && worst < 0.01);
+    // measured 0.0080° and 0.0062
+    assert!(mean < 0.025 && worst < 0.012, "{mean:.4}°, {worst:.4}");
     // raw matching of the same data is much worse (a check that normalisation matters)
     let raw = errors(
         &solve(&target, &mask, &[t], &Options::default()).normals,
@@ -169,6 +189,8 @@ fn textured_albedo_with_normalised_matching() {
         &mask,
     );
     println!("  raw matching against the shiny table: mean {:.3}°", raw.0);
+    // measured 23.1°: without normalisation the albedo changes read as normal changes
+    assert!(raw.0 > 10.0, "raw matching {:.3}°", raw.0);
 }
 
 #[test]
@@ -202,7 +224,10 @@ fn cast_shadowed_lights_are_dropped() {
         base.0,
         band.count()
     );
-    assert!(mean < 2.0, "mean {mean:.3}°");
+    // measured: 0.042° (6-NN IDW 14.1°); 3200/3200 band pixels had lights dropped
+    assert!(mean < 0.12, "mean {mean:.3}°");
+    assert!(base.0 > 5.0, "6-NN IDW {:.3}°", base.0);
+    assert_eq!(flagged, band.count(), "band pixels with dropped lights");
 }
 
 #[test]

@@ -261,7 +261,7 @@ fn metal_uses_confidence_against_dark_pixels() {
         1.0,
         &Options::default(),
     );
-    assert!(f.all < 0.3, "{:.3}°", f.all);
+    assert!(f.all < 0.3, "{:.3}°", f.all); // measured 0.088°
     let f = run(
         "metal, 1% noise",
         &scene(Material::metal(), 0.01, false),
@@ -269,8 +269,10 @@ fn metal_uses_confidence_against_dark_pixels() {
         1.0,
         &Options::default(),
     );
+    // measured: all 0.843°, confident (≥ 0.5) 0.131°: the confidence flags the dark,
+    // noise-dominated pixels
     assert!(
-        f.confident < 4.0 && f.all < 4.0,
+        f.confident < 0.35 && f.all < 2.0 && f.confident < f.all / 3.0,
         "{:.3}° / confident {:.3}°",
         f.all,
         f.confident

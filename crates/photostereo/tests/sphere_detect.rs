@@ -1,6 +1,7 @@
 //! Sphere detection against known circles: noise and attached shadows, a grey
 //! background, outlier blobs, corrupted edge points, bad input, the real chrome sphere.
 
+mod shared_data;
 mod sphere_support;
 
 use photostereo::error::Error;
@@ -291,11 +292,9 @@ fn save_overlay(d: &photostereo::sphere::Detection, name: &str) {
 /// `../shared` is absent.
 #[test]
 fn real_chrome_sphere() {
-    let Some(shared) = sphere_support::shared_dir() else {
-        println!("skipped: ../shared not found");
+    let Some(dir) = shared_data::path("real_chrome_sphere", "data/real/chrome") else {
         return;
     };
-    let dir = shared.join("data/real/chrome");
     let stack = sphere_support::load_png_dir(&dir);
     let found = detect(&stack, &DetectOptions::default()).unwrap();
     let c = found.circle;

@@ -42,6 +42,13 @@ pub struct NikOptions {
     pub lambertian: lambertian::Options,
     /// Integration used at every step (default: masked least squares).
     pub integrate: integrate::Options,
+    /// Whether the caller knows that `raw` is in radiance units (a white Lambertian surface
+    /// facing a unit light reads 1): calibrated intensities, an image scale given by the
+    /// user or read from the dataset. The iteration cannot check it — the bounced light it
+    /// removes is proportional to the absolute albedo, so the recovered depth follows any
+    /// error in the scale (table in `docs/interreflection-scale.md`). It is only echoed in
+    /// [`NikOutput::scale_known`] so that front ends can warn; default `false`.
+    pub scale_known: bool,
 }
 
 impl Default for NikOptions {
@@ -57,6 +64,7 @@ impl Default for NikOptions {
                 ..lambertian::Options::default()
             },
             integrate: integrate::Options::default(),
+            scale_known: false,
         }
     }
 }
@@ -153,6 +161,10 @@ pub struct NikOutput {
     pub best: usize,
     /// How the iteration ended.
     pub convergence: Convergence,
+    /// [`NikOptions::scale_known`]: `false` when nobody said that the images are in
+    /// radiance units; the depth then depends on that unknown factor and should be reported
+    /// as such.
+    pub scale_known: bool,
 }
 
 impl NikOutput {
@@ -262,6 +274,7 @@ pub fn iterate(
         iterations,
         best,
         convergence,
+        scale_known: opts.scale_known,
     })
 }
 

@@ -176,15 +176,6 @@ pub fn angle_deg(a: [f32; 3], b: [f32; 3]) -> f64 {
     d.clamp(-1.0, 1.0).acos().to_degrees()
 }
 
-/// `../shared` next to the workspace (or `$PHOTOSTEREO_SHARED`), if present.
-pub fn shared_dir() -> Option<std::path::PathBuf> {
-    let p = match std::env::var_os("PHOTOSTEREO_SHARED") {
-        Some(p) => std::path::PathBuf::from(p),
-        None => std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"),
-    };
-    p.is_dir().then_some(p)
-}
-
 /// Load a directory of 8/16-bit PNGs listed in `filenames.txt` as a grey stack in [0, 1].
 pub fn load_png_dir(dir: &std::path::Path) -> ImageStack {
     let names = std::fs::read_to_string(dir.join("filenames.txt")).unwrap();
