@@ -28,7 +28,9 @@ pub struct Args {
     /// target): left column, top row, width, height.
     #[arg(long, value_name = "X,Y,W,H", value_parser = crate::lights::parse_region)]
     sphere_region: Option<(usize, usize, usize, usize)>,
-    /// Search the sphere only inside this mask (PNG/TIFF/.npy, non-zero = sphere).
+    /// Search the sphere only inside this mask (PNG/TIFF/.npy, non-zero = sphere);
+    /// default: SPHERE_DIR/mask.png when present. The mask only says where to look:
+    /// the circle is always fitted to the rim in the images.
     #[arg(long, value_name = "MASK")]
     mask: Option<PathBuf>,
     /// Free-text name of the sphere's material, stored in the table.
@@ -55,14 +57,12 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     };
     let data = io::load_dataset(&args.dir, &load)
         .with_context(|| format!("loading the sphere images from {}", args.dir.display()))?;
+    // The sphere folder's mask.png (or --mask) restricts the search, as in `run
+    // --sphere`; the circle itself always comes from the images' rim.
     let detect = DetectOptions {
         circle: args.circle,
         region: args.sphere_region,
-        mask: if args.mask.is_some() {
-            data.mask.clone()
-        } else {
-            None
-        },
+        mask: data.mask.clone(),
         ..DetectOptions::default()
     };
     let det = sphere::detect(&data.stack, &detect)
@@ -78,10 +78,10 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     } else {
         "detected"
     };
-    say(format!(
-        "sphere circle ({source}): cx {:.2}, cy {:.2}, r {:.2} px; fit rms {:.3} px over {}/{} edge points",
-        c.cx, c.cy, c.radius, det.rms_residual_px, det.inliers, det.edge_points
-    ));
+    say(format!("sphere circle ({source}): {}", det.describe()));
+    if let Some(w) = det.warning() {
+        eprintln!("{w}");
+    }
     let opts = BuildOptions {
         rim: args.rim,
         material: args.material.clone(),

@@ -66,10 +66,10 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             println!("{s}");
         }
     };
-    say(format!(
-        "sphere circle ({source}): cx {:.2}, cy {:.2}, r {:.2} px; fit rms {:.3} px over {}/{} edge points",
-        c.cx, c.cy, c.radius, det.rms_residual_px, det.inliers, det.edge_points
-    ));
+    say(format!("sphere circle ({source}): {}", det.describe()));
+    if let Some(w) = det.warning() {
+        eprintln!("{w}");
+    }
     // --chrome is the default; it only documents the choice
     let matte = args.matte && !args.chrome;
     let lights = if matte {

@@ -3,11 +3,10 @@
 //! and the Mitsuba renders of a sphere of radius 100 px. Truth: the circle of the true
 //! normals, fitted by least squares (pixel (r, c) centred at (c + 0.5, r + 0.5)).
 
-mod sphere_support;
+mod shared_data;
 
 use photostereo::io;
 use photostereo::sphere::{detect, Circle, DetectOptions};
-use sphere_support::shared_dir;
 use std::path::Path;
 
 /// Least-squares circle of the true normals: u = cx + R n_x, v = cy − R n_y.
@@ -77,7 +76,10 @@ fn measure(dir: &Path, truth: &Circle) -> (f64, f64, f64) {
         },
     )
     .unwrap();
-    println!("detection {secs:.2} s; without the rim model {:.2} s", t.elapsed().as_secs_f64());
+    println!(
+        "detection {secs:.2} s; without the rim model {:.2} s",
+        t.elapsed().as_secs_f64()
+    );
     let c = plain.circle;
     let ec = (c.cx - truth.cx).hypot(c.cy - truth.cy);
     let er = c.radius - truth.radius;
@@ -103,8 +105,14 @@ fn measure(dir: &Path, truth: &Circle) -> (f64, f64, f64) {
         )
         .unwrap();
         let m = masked.circle;
-        let diff = (m.cx - c.cx).abs().max((m.cy - c.cy).abs()).max((m.radius - c.radius).abs());
-        println!("  with the folder's mask.png: {} (differs by {diff:.4} px)", masked.describe());
+        let diff = (m.cx - c.cx)
+            .abs()
+            .max((m.cy - c.cy).abs())
+            .max((m.radius - c.radius).abs());
+        println!(
+            "  with the folder's mask.png: {} (differs by {diff:.4} px)",
+            masked.describe()
+        );
         assert!(diff < 0.02, "the mask must only restrict the search");
     }
     (ec, er.abs(), plain.uncertainty_px)
@@ -120,35 +128,34 @@ fn measure(dir: &Path, truth: &Circle) -> (f64, f64, f64) {
 /// spread, 0.19 px) says the rim is ambiguous.
 #[test]
 fn diligent_ball_circle_measured() {
-    let Some(shared) = shared_dir() else {
-        println!("skipped: ../shared not found (set PHOTOSTEREO_SHARED)");
+    let Some(dir) = shared_data::path("diligent_ball_circle_measured", "data/real/diligent_ball")
+    else {
         return;
     };
-    let dir = shared.join("data/real/diligent_ball");
-    if !dir.is_dir() {
-        println!("skipped: {} not found", dir.display());
-        return;
-    }
     let truth = truth_circle(&dir);
     let (ec, er, u) = measure(&dir, &truth);
-    assert!(ec < 0.35 && er < 1.0, "centre {ec:.3} px, radius {er:.3} px, ±{u:.3}");
-    assert!(u > 0.1, "the uncertainty ({u:.3} px) must show the ambiguity");
+    assert!(
+        ec < 0.35 && er < 1.0,
+        "centre {ec:.3} px, radius {er:.3} px, ±{u:.3}"
+    );
+    assert!(
+        u > 0.1,
+        "the uncertainty ({u:.3} px) must show the ambiguity"
+    );
 }
 
 #[test]
 fn mitsuba_spheres_within_0_1_px() {
-    let Some(shared) = shared_dir() else {
-        println!("skipped: ../shared not found (set PHOTOSTEREO_SHARED)");
-        return;
-    };
     for case in ["calib_diffuse", "calib_roughplastic"] {
-        let dir = shared.join("data").join(case);
-        if !dir.is_dir() {
-            println!("skipped: {} not found", dir.display());
-            continue;
-        }
+        let Some(dir) = shared_data::path("mitsuba_spheres_within_0_1_px", &format!("data/{case}"))
+        else {
+            return;
+        };
         let truth = truth_circle(&dir);
         let (ec, er, u) = measure(&dir, &truth);
-        assert!(ec < 0.1 && er < 0.1, "{case}: centre {ec:.3} px, radius {er:.3} px, ±{u:.3}");
+        assert!(
+            ec < 0.1 && er < 0.1,
+            "{case}: centre {ec:.3} px, radius {er:.3} px, ±{u:.3}"
+        );
     }
 }

@@ -272,7 +272,11 @@ pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
 /// uncertainty is the circle; half the largest disagreement between the four fits is
 /// added (in quadrature) to its uncertainty. The detection is unchanged when the full
 /// model fits on neither image.
-fn refine_on_rim(stack: &ImageStack, win: (usize, usize, usize, usize), det: Detection) -> Detection {
+fn refine_on_rim(
+    stack: &ImageStack,
+    win: (usize, usize, usize, usize),
+    det: Detection,
+) -> Detection {
     let (x0, y0, w, h) = win;
     let (mut maxv, mut meanv) = (Vec::with_capacity(w * h), Vec::with_capacity(w * h));
     for r in y0..y0 + h {

@@ -12,9 +12,11 @@
 //!   F(s) = b₀ + b₁·s outside (background with a gradient), a₀ + a₁·√s + a₂·s inside.
 //!   The normal's angle from the view axis is φ with cos φ = 1 − s/R, a smooth function
 //!   of √s, so a radiance smooth over the normal sphere is smooth in √s.
-//! * **Imaging**: each pixel is the mean, over 4 × 4 sub-pixel points (exact circle
-//!   geometry, curvature included), of F convolved with a Gaussian of standard
-//!   deviation σ (the optics' blur; σ → 0 is a perfect area-sampling camera).
+//! * **Imaging**: each pixel is the mean, over 4 × 4 sub-pixel points (their radial
+//!   offsets at the sector's angle), of F convolved with a Gaussian of standard
+//!   deviation σ (the optics' blur; σ → 0 is a perfect area-sampling camera). A
+//!   point-sampled render (each pixel the scene at its centre, a staircase silhouette)
+//!   is the same with all offsets 0; the footprint that fits better is used.
 //! * **Fit**: the rim is cut into angular sectors (about 6 px of arc each); in each,
 //!   the five linear coefficients come from least squares and the rim's offset e (ρ = R
 //!   + e) minimises the residual (scan, then golden section). σ is shared by all
@@ -82,12 +84,21 @@ pub(crate) fn refine(img: &View, init: Circle, linear: bool) -> Option<RimFit> {
         return None;
     }
     let mut circle = init;
-    let mut sigma = None;
+    let mut model = None;
     let mut last = None;
     for _ in 0..3 {
-        let band = Band::new(img, &circle)?;
-        let s = *sigma.get_or_insert_with(|| band.best_sigma(linear));
-        let fit = band.fit_circle(s, linear)?;
+        let (sigma, point) = *model.get_or_insert_with(|| {
+            // the pixel's footprint: its area (a camera) or its centre (a point-sampled
+            // render), whichever fits better at its best blur
+            let fits = [false, true]
+                .map(|point| Band::new(img, &circle, point).map(|b| (b.best_sigma(linear), point)));
+            fits.into_iter()
+                .flatten()
+                .min_by(|a, b| a.0 .1.total_cmp(&b.0 .1))
+                .map_or((0.0, false), |((s, _), p)| (s, p))
+        });
+        let band = Band::new(img, &circle, point)?;
+        let fit = band.fit_circle(sigma, linear)?;
         let moved = distance(&fit.circle, &circle);
         circle = fit.circle;
         last = Some(fit);
@@ -128,7 +139,8 @@ struct SectorPixel {
 }
 
 impl Band {
-    fn new(img: &View, circle: &Circle) -> Option<Self> {
+    /// `point`: each pixel samples the scene at its centre (else over its area).
+    fn new(img: &View, circle: &Circle, point: bool) -> Option<Self> {
         use std::f64::consts::TAU;
         let r = circle.radius;
         let inside_px = (0.15 * r).clamp(3.0, INSIDE_MAX_PX);
@@ -139,7 +151,11 @@ impl Band {
                 let offsets = std::array::from_fn(|k| {
                     let (i, j) = ((k / SUB) as f64, (k % SUB) as f64);
                     let (ox, oy) = ((j + 0.5) / SUB as f64 - 0.5, (i + 0.5) / SUB as f64 - 0.5);
-                    ox * angle.cos() + oy * angle.sin()
+                    if point {
+                        0.0
+                    } else {
+                        ox * angle.cos() + oy * angle.sin()
+                    }
                 });
                 Sector {
                     angle,
@@ -176,8 +192,8 @@ impl Band {
     }
 
     /// Blur σ minimising the summed residual of every other sector (golden section on
-    /// σ ∈ [0, 2.5] px).
-    fn best_sigma(&self, linear: bool) -> f64 {
+    /// σ ∈ [0, 2.5] px), and that residual.
+    fn best_sigma(&self, linear: bool) -> (f64, f64) {
         let total = |sigma: f64| -> f64 {
             let basis = Basis::new(sigma, linear);
             self.sectors
@@ -186,7 +202,8 @@ impl Band {
                 .map(|s| self.sector_fit(&basis, s).map_or(0.0, |f| f.1))
                 .sum()
         };
-        golden(total, 0.0, 2.5, 10)
+        let sigma = golden(&total, 0.0, 2.5, 10);
+        (sigma, total(sigma))
     }
 
     /// The sector points at blur `sigma`, fitted by the robust circle fit.
@@ -525,7 +542,12 @@ mod tests {
             }
             let got = blurred(s, sigma);
             for k in 0..5 {
-                assert!((got[k] - acc[k]).abs() < 1e-5, "k {k} s {s}: {} vs {}", got[k], acc[k]);
+                assert!(
+                    (got[k] - acc[k]).abs() < 1e-5,
+                    "k {k} s {s}: {} vs {}",
+                    got[k],
+                    acc[k]
+                );
             }
         }
     }
