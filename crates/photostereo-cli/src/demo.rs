@@ -13,8 +13,9 @@ use std::time::Instant;
 use anyhow::Result;
 use photostereo::synth::{self, Material, SceneOptions, Shape, ShapeKind};
 
-use crate::run::outputs;
-use crate::run::pipeline::{self, Job, Normals, Truth};
+use photostereo::pipeline::{self, Job, Normals, Titles, Truth};
+
+use crate::progress::Bar;
 use crate::Global;
 
 /// Arguments of `photostereo demo`.
@@ -78,22 +79,18 @@ fn shiny_vase(out: &Path, size: usize, global: Global) -> Result<Vec<String>> {
             sphere: sphere.stack,
             sphere_mask: None,
         },
-        method: None,
         truth: Truth {
             normals: Some(target.normals),
             depth: Some(target.depth),
         },
     };
-    let p = pipeline::run(&job, global.quiet)?;
+    let p = pipeline::solve(&job, &Default::default(), &Bar::new(global.quiet))?;
     let extra = [("render".to_string(), render_s)];
-    outputs::write_all(
-        out,
-        "demo: shiny vase",
-        "calibration-based photometric stereo (GGX plastic sphere, 16 lights)",
-        &job,
-        &p,
-        &extra,
-    )?;
+    let titles = Titles {
+        title: "demo: shiny vase".into(),
+        subtitle: "calibration-based photometric stereo (GGX plastic sphere, 16 lights)".into(),
+    };
+    pipeline::write_outputs(out, &titles, &job, &p, &extra)?;
     let mut lines = vec![format!(
         "shiny vase {size}×{size}, 16 lights, lookup table from a sphere of radius {:.0} px:",
         0.4 * size as f64
@@ -138,24 +135,23 @@ fn lambertian_bowl(out: &Path, size: usize, global: Global) -> Result<Vec<String
         mask: scene.mask,
         normals: Normals::Lambertian {
             lights: scene.lights,
-            interreflections: true,
         },
-        method: None,
         truth: Truth {
             normals: Some(scene.normals),
             depth: Some(scene.depth),
         },
     };
-    let p = pipeline::run(&job, global.quiet)?;
+    let opts = pipeline::Options {
+        interreflections: true,
+        ..Default::default()
+    };
+    let p = pipeline::solve(&job, &opts, &Bar::new(global.quiet))?;
     let extra = [("render".to_string(), render_s)];
-    outputs::write_all(
-        out,
-        "demo: Lambertian bowl",
-        "Lambertian photometric stereo with interreflection removal (Nayar, Ikeuchi & Kanade 1991)",
-        &job,
-        &p,
-        &extra,
-    )?;
+    let titles = Titles {
+        title: "demo: Lambertian bowl".into(),
+        subtitle: "Lambertian photometric stereo with interreflection removal (Nayar, Ikeuchi & Kanade 1991)".into(),
+    };
+    pipeline::write_outputs(out, &titles, &job, &p, &extra)?;
     let mut lines = vec![format!(
         "Lambertian bowl {size}×{size} (albedo 0.8) with interreflections:"
     )];

@@ -6,7 +6,7 @@ use crate::Global;
 use anyhow::Context;
 use photostereo::interreflect::{self, NikOptions, NikOutput, RadiosityOptions, Visibility};
 use photostereo::io;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `photostereo interreflect`.
 #[derive(clap::Args, Debug)]
@@ -53,7 +53,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     };
     let mut data = io::load_dataset(&args.dataset, &opts)
         .with_context(|| format!("loading {}", args.dataset.display()))?;
-    let scale = radiance_scale(&args.dataset, args.image_scale, true)?;
+    let scale = photostereo::pipeline::radiance_scale(&args.dataset, args.image_scale, true)?;
     data.stack.data.iter_mut().for_each(|v| *v *= scale);
     let lights = data.lights.clone().context("light directions")?;
     let mask = data.mask.clone().context("mask")?;
@@ -71,7 +71,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             },
             ..Default::default()
         },
-        scale_known: scale_is_known(&args.dataset, args.image_scale, true)?,
+        scale_known: photostereo::pipeline::scale_is_known(&args.dataset, args.image_scale, true)?,
         ..Default::default()
     };
     let out = interreflect::solve(&data.stack, &mask, &lights, &nik, &Bar::new(global.quiet))
@@ -106,53 +106,6 @@ fn auto_block(mask: &photostereo::Mask) -> usize {
             cells.iter().filter(|&&c| c).count() <= 4096
         })
         .unwrap_or(64)
-}
-
-/// The factor that brings a dataset's images to radiance units: `--image-scale` when
-/// given, else (with `use_meta`) 65535/scale from its `meta.json` (renders that store
-/// radiance × scale in 16-bit PNGs), else 1. Interreflection removal needs it: the
-/// bounced light depends on the absolute albedo, which photometric stereo only knows up
-/// to this factor.
-pub(crate) fn radiance_scale(
-    dir: &Path,
-    given: Option<f32>,
-    use_meta: bool,
-) -> anyhow::Result<f32> {
-    let scale = match given {
-        Some(s) => s,
-        None if use_meta => meta_scale(dir)?.unwrap_or(1.0),
-        None => 1.0,
-    };
-    if !(scale.is_finite() && scale > 0.0) {
-        anyhow::bail!("--image-scale {scale}: use a finite factor > 0");
-    }
-    Ok(scale)
-}
-
-/// Whether [`radiance_scale`] knows the factor (`--image-scale`, or with `use_meta` a
-/// meta.json scale) rather than assuming 1: [`NikOptions::scale_known`].
-pub(crate) fn scale_is_known(
-    dir: &Path,
-    given: Option<f32>,
-    use_meta: bool,
-) -> anyhow::Result<bool> {
-    Ok(given.is_some() || (use_meta && meta_scale(dir)?.is_some()))
-}
-
-/// `65535 / scale` from the dataset's meta.json (Mitsuba renders store 16-bit = radiance × scale).
-fn meta_scale(dir: &Path) -> anyhow::Result<Option<f32>> {
-    let path = dir.join("meta.json");
-    if !path.exists() {
-        return Ok(None);
-    }
-    let text =
-        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
-    let v: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
-    Ok(v.get("scale")
-        .and_then(|s| s.as_f64())
-        .filter(|s| *s > 0.0)
-        .map(|s| (65535.0 / s) as f32))
 }
 
 fn write_outputs(

@@ -54,4 +54,21 @@ impl Progress for Bar {
             }
         }
     }
+
+    /// `[i/n] stage ...` when it starts, `[i/n] stage: 1.23 s` when it ends.
+    fn stage(&self, index: usize, total: usize, name: &str, seconds: Option<f64>) {
+        if self.quiet {
+            return;
+        }
+        match seconds {
+            None => eprintln!("[{index}/{total}] {name} ..."),
+            Some(dt) => eprintln!("[{index}/{total}] {name}: {dt:.2} s"),
+        }
+    }
+
+    fn note(&self, message: &str) {
+        if !self.quiet {
+            eprintln!("{message}");
+        }
+    }
 }

@@ -74,6 +74,14 @@ pub enum Error {
     /// Any other invalid argument or data, with the fix.
     #[error("{what}: {fix}")]
     InvalidInput { what: String, fix: String },
+
+    /// An error of a step, with what was being done (e.g. a pipeline stage).
+    #[error("{context}: {source}")]
+    Context {
+        context: String,
+        #[source]
+        source: Box<Error>,
+    },
 }
 
 impl Error {
@@ -82,6 +90,22 @@ impl Error {
         Error::InvalidInput {
             what: what.into(),
             fix: fix.into(),
+        }
+    }
+
+    /// Wrap the error with what was being done ([`Error::Context`]).
+    pub fn context(self, context: impl Into<String>) -> Self {
+        Error::Context {
+            context: context.into(),
+            source: Box::new(self),
+        }
+    }
+
+    /// The innermost error below any [`Error::Context`] wrappers (what to classify by).
+    pub fn root(&self) -> &Error {
+        match self {
+            Error::Context { source, .. } => source.root(),
+            other => other,
         }
     }
 

@@ -45,6 +45,7 @@ pub mod lambertian;
 pub mod lightcal;
 pub mod lut;
 pub mod mesh;
+pub mod pipeline;
 pub mod progress;
 pub mod report;
 pub mod sphere;

@@ -11,6 +11,11 @@ pub trait Progress: Sync {
     fn advance(&self, steps: u64);
     /// The phase is over.
     fn finish(&self) {}
+    /// Stage `index` (1-based) of `total` of a pipeline starts (`seconds` = `None`) or
+    /// has ended after `seconds` (see [`crate::pipeline`]).
+    fn stage(&self, _index: usize, _total: usize, _name: &str, _seconds: Option<f64>) {}
+    /// A one-line note for the user (where the lights came from, a warning).
+    fn note(&self, _message: &str) {}
 }
 
 /// A [`Progress`] that ignores everything.

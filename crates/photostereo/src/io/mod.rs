@@ -38,6 +38,7 @@
 pub mod dataset;
 pub mod npy;
 pub mod raster;
+pub mod run;
 
 pub use dataset::{
     load_dataset, read_intensities, read_lights, write_dataset, write_intensities,
@@ -50,6 +51,7 @@ pub use raster::{
     read_gray_image, read_mask, read_mask_any, read_normals_png, write_colormap_png,
     write_depth_png, write_gray_png, write_gray_png_range, write_mask_png, write_normals_png,
 };
+pub use run::{dataset_name, read_ground_truth, read_meta_scale, read_table, write_table};
 
 use crate::error::{Error, Result};
 use std::fs::{self, File, OpenOptions};

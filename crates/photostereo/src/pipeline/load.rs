@@ -1,0 +1,253 @@
+//! The whole job from paths, as `photostereo run` does it: load the target (and the
+//! sphere, the lights, the ground truth), [`super::solve`], [`super::write_outputs`].
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde_json::Value;
+
+use super::{Calibration, Job, Normals, Options, Output, Titles, Truth};
+use crate::error::{Error, Result};
+use crate::image::{Lights, Mask};
+use crate::progress::Progress;
+use crate::{io, lightcal, sphere};
+
+/// The files of a run: the target dataset and where its normals come from. Exactly one
+/// of `sphere`, `calibration` and `lambertian` says how to get the normals.
+#[derive(Clone, Debug, Default)]
+pub struct Inputs {
+    /// Target dataset directory (DiLiGenT layout, see [`crate::io`]).
+    pub target: PathBuf,
+    /// Calibration sphere dataset of the same material under the same lights: the
+    /// lookup table is built from it (its `mask.png`, if any, restricts the search).
+    pub sphere: Option<PathBuf>,
+    /// A calibration made beforehand (e.g. once for a batch of targets).
+    pub calibration: Option<Calibration>,
+    /// Lambertian photometric stereo with known lights: `lights`, else `chrome`, else the
+    /// dataset's `light_directions.txt`.
+    pub lambertian: bool,
+    /// Light directions file (K lines `x y z`) instead of the dataset's (Lambertian).
+    pub lights: Option<PathBuf>,
+    /// Chrome sphere dataset under the same lights: lights from its highlights (Lambertian).
+    pub chrome: Option<PathBuf>,
+    /// Mask file instead of the dataset's `mask.png`.
+    pub mask: Option<PathBuf>,
+    /// Factor that brings the images to radiance units (Lambertian); `None` = with
+    /// interreflection removal 65535/scale of the dataset's `meta.json` if it has one,
+    /// else 1 ([`radiance_scale`]).
+    pub image_scale: Option<f32>,
+}
+
+/// A loaded job, with its titles and the timings of the loading.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    /// The job, ready for [`super::solve`].
+    pub job: Job,
+    /// Title (the target's directory name) and subtitle (the method).
+    pub titles: Titles,
+    /// (stage, seconds) of the loading: `load`, and `lights` for a Lambertian job.
+    pub stages: Vec<(String, f64)>,
+    /// Whether the images' radiance scale is known (given, or from `meta.json` with
+    /// interreflection removal; [`scale_is_known`]); [`run`] passes it on as
+    /// [`crate::interreflect::NikOptions::scale_known`].
+    pub scale_known: bool,
+}
+
+/// A finished run.
+#[derive(Clone, Debug)]
+pub struct Run {
+    /// The products, figures and timings of the pipeline.
+    pub output: Output,
+    /// The path of `report.html`.
+    pub report: PathBuf,
+    /// What `run.json` holds.
+    pub json: Value,
+}
+
+/// Load the job of `inputs`: the target (brought to radiance units for a Lambertian
+/// job), the sphere or the lights, and `normal_gt.npy` / `depth_gt.npy` when present.
+pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<Loaded> {
+    check(inputs, opts)?;
+    let t0 = Instant::now();
+    let load_opts = io::LoadOptions {
+        mask_path: inputs.mask.clone(),
+        ..Default::default()
+    };
+    let mut target = io::load_dataset(&inputs.target, &load_opts)?;
+    if inputs.lambertian {
+        let scale = radiance_scale(&inputs.target, inputs.image_scale, opts.interreflections)?;
+        target.stack.data.iter_mut().for_each(|v| *v *= scale);
+    }
+    let scale_known = inputs.lambertian
+        && scale_is_known(&inputs.target, inputs.image_scale, opts.interreflections)?;
+    let mut stages = vec![("load".to_string(), t0.elapsed().as_secs_f64())];
+    let mask = target
+        .mask
+        .clone()
+        .unwrap_or_else(|| Mask::full(target.stack.width, target.stack.height));
+    let normals = if let Some(cal) = &inputs.calibration {
+        Normals::Calibrated(Box::new(cal.clone()))
+    } else if let Some(dir) = &inputs.sphere {
+        let sphere = io::load_dataset(dir, &io::LoadOptions::default())?;
+        Normals::Lookup {
+            sphere: sphere.stack,
+            sphere_mask: sphere.mask,
+        }
+    } else {
+        let t = Instant::now();
+        let lights = lights(inputs, target.lights.clone(), progress)?;
+        stages.push(("lights".to_string(), t.elapsed().as_secs_f64()));
+        Normals::Lambertian { lights }
+    };
+    let (tn, td) = io::read_ground_truth(&inputs.target)?;
+    let job = Job {
+        target: target.stack,
+        mask,
+        normals,
+        truth: Truth {
+            normals: tn,
+            depth: td,
+        },
+    };
+    let titles = Titles {
+        title: io::dataset_name(&inputs.target),
+        subtitle: subtitle(inputs, opts),
+    };
+    Ok(Loaded {
+        job,
+        titles,
+        stages,
+        scale_known,
+    })
+}
+
+/// The whole job: [`load`], [`super::solve`], [`super::write_outputs`] into `out`.
+pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress) -> Result<Run> {
+    let loaded = load(inputs, opts, progress)?;
+    let mut opts = opts.clone();
+    opts.nik.scale_known |= loaded.scale_known;
+    let output = super::solve(&loaded.job, &opts, progress)?;
+    let report = super::write_outputs(out, &loaded.titles, &loaded.job, &output, &loaded.stages)?;
+    let mut stages = loaded.stages.clone();
+    stages.extend(output.stages.iter().cloned());
+    let json = super::run_json(&loaded.titles.title, &output, &stages);
+    Ok(Run {
+        output,
+        report,
+        json,
+    })
+}
+
+fn check(inputs: &Inputs, opts: &Options) -> Result<()> {
+    let ways = usize::from(inputs.sphere.is_some())
+        + usize::from(inputs.calibration.is_some())
+        + usize::from(inputs.lambertian);
+    if ways != 1 {
+        return Err(Error::invalid(
+            "say how to get normals",
+            "--sphere SPHERE_DIR (calibration-based) or --lambertian, one of them",
+        ));
+    }
+    if !inputs.lambertian && (inputs.lights.is_some() || inputs.chrome.is_some()) {
+        return Err(Error::invalid(
+            "light directions or a chrome sphere",
+            "they are for Lambertian photometric stereo: add --lambertian",
+        ));
+    }
+    if !inputs.lambertian && (opts.interreflections || inputs.image_scale.is_some()) {
+        return Err(Error::invalid(
+            "interreflection removal and the image scale",
+            "they are for Lambertian photometric stereo: add --lambertian",
+        ));
+    }
+    Ok(())
+}
+
+/// The factor that brings a dataset's images to radiance units: `given` when set, else
+/// (with `use_meta`) 65535/scale from its `meta.json` (renders that store radiance ×
+/// scale in 16-bit PNGs), else 1. Interreflection removal needs it: the bounced light
+/// depends on the absolute albedo, which photometric stereo only knows up to this factor.
+pub fn radiance_scale(dir: &Path, given: Option<f32>, use_meta: bool) -> Result<f32> {
+    let scale = match given {
+        Some(s) => s,
+        None if use_meta => io::read_meta_scale(dir)?.unwrap_or(1.0),
+        None => 1.0,
+    };
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(Error::invalid(
+            format!("--image-scale {scale}"),
+            "use a finite factor > 0",
+        ));
+    }
+    Ok(scale)
+}
+
+/// Whether [`radiance_scale`] knows the factor (`given`, or with `use_meta` a `meta.json`
+/// scale) rather than assuming 1: [`crate::interreflect::NikOptions::scale_known`].
+pub fn scale_is_known(dir: &Path, given: Option<f32>, use_meta: bool) -> Result<bool> {
+    Ok(given.is_some() || (use_meta && io::read_meta_scale(dir)?.is_some()))
+}
+
+/// Light directions: the `lights` file, the `chrome` calibration, or the dataset's own.
+fn lights(
+    inputs: &Inputs,
+    from_dataset: Option<Lights>,
+    progress: &dyn Progress,
+) -> Result<Lights> {
+    if let Some(file) = &inputs.lights {
+        return io::read_lights(file);
+    }
+    if let Some(dir) = &inputs.chrome {
+        let lights = chrome_lights(dir)?;
+        progress.note(&format!(
+            "lights calibrated from the chrome sphere {}",
+            dir.display()
+        ));
+        return Ok(lights);
+    }
+    from_dataset.ok_or_else(|| {
+        Error::invalid(
+            format!("{}: no light_directions.txt", inputs.target.display()),
+            "give --lights FILE or --chrome CHROME_DIR",
+        )
+    })
+}
+
+/// Lights from the highlights of a chrome sphere dataset.
+fn chrome_lights(dir: &Path) -> Result<Lights> {
+    let chrome = io::load_dataset(dir, &io::LoadOptions::default())?;
+    let det = sphere::detect(
+        &chrome.stack,
+        &sphere::DetectOptions {
+            // a mirror sphere's rim barely shows on a dark background: its
+            // silhouette mask, when given, is the better outline
+            mask_outline: chrome.mask.is_some(),
+            mask: chrome.mask.clone(),
+            ..Default::default()
+        },
+    )
+    .map_err(|e| e.context(format!("finding the chrome sphere in {}", dir.display())))?;
+    let (lights, _) = lightcal::from_chrome_sphere(&chrome.stack, &det.circle, &Default::default())
+        .map_err(|e| e.context(format!("calibrating the lights from {}", dir.display())))?;
+    Ok(lights)
+}
+
+fn subtitle(inputs: &Inputs, opts: &Options) -> String {
+    let ir = if opts.interreflections {
+        ", interreflections removed"
+    } else {
+        ""
+    };
+    match (&inputs.sphere, &inputs.calibration, &inputs.chrome) {
+        (Some(s), _, _) => format!(
+            "calibration-based photometric stereo, sphere {}",
+            s.display()
+        ),
+        (None, Some(_), _) => "calibration-based photometric stereo, table given".to_string(),
+        (None, None, Some(c)) => format!(
+            "Lambertian photometric stereo, lights from the chrome sphere {}{ir}",
+            c.display()
+        ),
+        (None, None, None) => format!("Lambertian photometric stereo{ir}"),
+    }
+}

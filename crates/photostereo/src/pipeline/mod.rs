@@ -1,0 +1,265 @@
+//! The whole job: normals → depth → mesh → figures → files, as `photostereo run`,
+//! `photostereo demo` and the Python package run it.
+//!
+//! # Stages
+//!
+//! 1. **Normals**, by one of ([`Normals`]):
+//!    * a lookup table (calibration-based photometric stereo, see [`crate::lut`]): the
+//!      calibration sphere is found ([`crate::sphere::detect`]), its table built
+//!      ([`crate::lut::Table::build`]) and the target looked up ([`crate::lut::solve`]);
+//!      or a table built beforehand ([`Calibration`]), e.g. once for a batch of targets;
+//!    * Lambertian least squares with known lights ([`crate::lambertian`]), and with
+//!      [`Options::interreflections`] the Nayar–Ikeuchi–Kanade iteration on top
+//!      ([`crate::interreflect`]; Nayar, Ikeuchi & Kanade, "Shape from interreflections",
+//!      IJCV 6(3), 1991), which also yields the depth.
+//! 2. **Integration** of the normals into depth ([`crate::integrate`]); the integrator is
+//!    [`Options::method`], or chosen from the mask ([`crate::integrate::choose_method`]):
+//!    DCT Poisson on a full rectangle, masked least squares (weighted by the lookup's
+//!    confidence) otherwise.
+//! 3. **Mesh** from the depth ([`crate::mesh::from_depth`]).
+//! 4. **Accuracy** against ground truth when the [`Job`] has some: angular error of the
+//!    normals, depth RMSE after the best offset ([`crate::eval`]).
+//!
+//! [`solve`] runs them in memory and returns an [`Output`] with the products, the
+//! figures (the rows of the report and of `run.json`) and the seconds of each stage.
+//! [`write_outputs`] writes the files of a run (through [`crate::io`] only);
+//! [`run`] does the whole job from paths ([`Inputs`]) as the `run` subcommand does.
+//!
+//! Each stage is a small function of this module; a new stage takes its settings from
+//! one new field of [`Options`] (with its default in `Options::default`) and adds its
+//! rows to [`Output::figures`].
+
+mod figures;
+mod load;
+mod outputs;
+mod stages;
+
+use crate::error::{Error, Result};
+use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
+use crate::progress::Progress;
+use crate::{eval, integrate, interreflect, lambertian, lut, mesh, sphere};
+
+pub use figures::{depth_range, masked_mean, run_json};
+pub use load::{load, radiance_scale, run, scale_is_known, Inputs, Loaded, Run};
+pub use outputs::{build_report, write_outputs, Titles};
+
+/// A calibration made beforehand: the lookup table and, when known, the sphere
+/// detection it was built from (for the report's circle figure and overlay).
+#[derive(Clone, Debug)]
+pub struct Calibration {
+    /// The lookup table.
+    pub table: lut::Table,
+    /// The sphere detection the table came from (`None` for a table read from a file).
+    pub detection: Option<sphere::Detection>,
+}
+
+/// Where the normals come from.
+#[derive(Clone, Debug)]
+pub enum Normals {
+    /// Calibration-based: a lookup table from a sphere of the same material imaged
+    /// under the same lights (`sphere_mask` restricts the sphere search).
+    Lookup {
+        sphere: ImageStack,
+        sphere_mask: Option<Mask>,
+    },
+    /// Calibration-based with a table built beforehand.
+    Calibrated(Box<Calibration>),
+    /// Lambertian least squares with known lights (unit directions, surface → light).
+    Lambertian { lights: Lights },
+}
+
+/// Ground truth, when known (synthetic data).
+#[derive(Clone, Debug, Default)]
+pub struct Truth {
+    /// True normals (H, W).
+    pub normals: Option<NormalMap>,
+    /// True depth (H, W), pixels, larger = closer.
+    pub depth: Option<DepthMap>,
+}
+
+/// One job, in memory.
+#[derive(Clone, Debug)]
+pub struct Job {
+    /// The target's K images (for interreflection removal: in radiance units).
+    pub target: ImageStack,
+    /// The pixels to reconstruct (the full image when the dataset has no mask).
+    pub mask: Mask,
+    /// How to get the normals.
+    pub normals: Normals,
+    /// Ground truth for the accuracy stage.
+    pub truth: Truth,
+}
+
+/// Settings of the pipeline: one field per option, each with its default in
+/// [`Options::default`].
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Integrator; `None` = [`integrate::choose_method`] from the mask (DCT Poisson on a
+    /// full rectangle, masked least squares otherwise).
+    pub method: Option<integrate::Method>,
+    /// Remove interreflections (Nayar–Ikeuchi–Kanade iteration; Lambertian jobs only).
+    pub interreflections: bool,
+    /// Settings of the sphere detection ([`Normals::Lookup`]); its `mask` is replaced
+    /// by the job's `sphere_mask`.
+    pub detect: sphere::DetectOptions,
+    /// Settings of the lookup-table build ([`Normals::Lookup`]).
+    pub build: lut::BuildOptions,
+    /// Settings of the lookup ([`Normals::Lookup`] and [`Normals::Calibrated`]).
+    pub lookup: lut::Options,
+    /// Settings of Lambertian photometric stereo (without interreflection removal).
+    pub lambertian: lambertian::Options,
+    /// Settings of the interreflection iteration; its integrator is [`Options::method`]
+    /// (or the one chosen from the mask).
+    pub nik: interreflect::NikOptions,
+}
+
+// Written out (not derived) so that every new option states its default here.
+#[allow(clippy::derivable_impls)]
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            method: None,
+            interreflections: false,
+            detect: sphere::DetectOptions::default(),
+            build: lut::BuildOptions::default(),
+            lookup: lut::Options::default(),
+            lambertian: lambertian::Options::default(),
+            nik: interreflect::NikOptions::default(),
+        }
+    }
+}
+
+/// Interreflection removal results.
+#[derive(Clone, Debug)]
+pub struct Interreflections {
+    /// One-line summary of the iteration (converged or not, iterate kept).
+    pub summary: String,
+    /// Convergence table (CSV).
+    pub csv: String,
+    /// Plots: (file name, PNG bytes).
+    pub plots: Vec<(String, Vec<u8>)>,
+    /// Compensation steps done.
+    pub iterations: usize,
+    /// Depth of the concavity (depth range over the mask, px) of the raw reconstruction.
+    pub depth_before: f32,
+    /// The same for the kept iterate.
+    pub depth_after: f32,
+    /// Mean albedo over the mask of the raw reconstruction.
+    pub albedo_before: f32,
+    /// The same for the kept iterate.
+    pub albedo_after: f32,
+}
+
+/// Accuracy against ground truth.
+#[derive(Clone, Debug, Default)]
+pub struct Accuracy {
+    /// Angular error statistics of the normals and the error map (degrees).
+    pub angular: Option<(eval::NormalStats, GrayImage)>,
+    /// RMSE after the best offset, its depth range, and the signed error map (px).
+    pub depth: Option<(eval::DepthStats, GrayImage)>,
+}
+
+/// Everything a job produced.
+#[derive(Clone, Debug)]
+pub struct Output {
+    /// Unit normals (H, W), [0, 0, 0] outside the mask.
+    pub normals: NormalMap,
+    /// Albedo (Lambertian: absolute; lookup: relative to the sphere, with `normalize`).
+    pub albedo: Option<GrayImage>,
+    /// Confidence in [0, 1] (lookup only).
+    pub confidence: Option<GrayImage>,
+    /// Depth (H, W), pixels, larger = closer, NaN outside the mask.
+    pub depth: DepthMap,
+    /// Triangle mesh of the depth.
+    pub mesh: mesh::Mesh,
+    /// The integrator used.
+    pub method: integrate::Method,
+    /// The calibration sphere's detection (lookup with a known detection).
+    pub circle: Option<sphere::Detection>,
+    /// Interreflection removal results (with [`Options::interreflections`]).
+    pub interreflections: Option<Interreflections>,
+    /// Accuracy against the job's ground truth.
+    pub accuracy: Accuracy,
+    /// (stage, seconds), in order.
+    pub stages: Vec<(String, f64)>,
+    /// (figure, value) rows for the report and `run.json`, in order.
+    pub figures: Vec<(String, String)>,
+}
+
+/// Run the job in memory; `progress` gets the stage lines and the progress of long stages.
+///
+/// Errors: those of the stages, wrapped with the stage's name ([`Error::Context`]);
+/// [`Error::InvalidInput`] for interreflection removal on a lookup job.
+pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Output> {
+    if opts.interreflections && !matches!(job.normals, Normals::Lambertian { .. }) {
+        return Err(Error::invalid(
+            "interreflection removal",
+            "it needs Lambertian photometric stereo: use lambertian with known lights",
+        ));
+    }
+    let has_truth = job.truth.normals.is_some() || job.truth.depth.is_some();
+    let total = stages::planned(&job.normals, opts.interreflections) + usize::from(has_truth);
+    let mut st = stages::Stages::new(total, progress);
+    let method = opts
+        .method
+        .unwrap_or_else(|| integrate::choose_method(&job.mask));
+    let (est, circle, ir) = stages::normals(&mut st, job, opts, method)?;
+    let depth = match est.depth.clone() {
+        Some(d) => d,
+        None => st.run("integration", |p| {
+            let conf = est.confidence.as_ref();
+            stages::integrate_normals(&est.normals, &job.mask, conf, method, p)
+        })?,
+    };
+    let mesh = st.run("mesh", |_| {
+        mesh::from_depth(&depth, &job.mask, Some(&est.normals), est.albedo.as_ref())
+    })?;
+    let accuracy = if has_truth {
+        st.run("accuracy", |_| stages::accuracy(job, &est.normals, &depth))?
+    } else {
+        Accuracy::default()
+    };
+    let mut figures = Vec::new();
+    if let Some(det) = &circle {
+        figures.push(("sphere circle (cx, cy, r) px".into(), figures::circle(det)));
+    }
+    figures.extend(figures::summary(
+        job, &est, &depth, &mesh, method, &accuracy, &ir,
+    ));
+    Ok(Output {
+        normals: est.normals,
+        albedo: est.albedo,
+        confidence: est.confidence,
+        depth,
+        mesh,
+        method,
+        circle,
+        interreflections: ir,
+        accuracy,
+        stages: st.list,
+        figures,
+    })
+}
+
+/// The calibration of [`Normals::Lookup`]: detect the sphere (inside `sphere_mask` when
+/// given) and build its table with `opts.detect` and `opts.build`.
+pub fn calibrate(
+    sphere_stack: &ImageStack,
+    sphere_mask: Option<Mask>,
+    opts: &Options,
+) -> Result<Calibration> {
+    let det = stages::detect(sphere_stack, sphere_mask, opts)?;
+    let table = lut::Table::build(sphere_stack, &det.circle, &opts.build)?;
+    Ok(Calibration {
+        table,
+        detection: Some(det),
+    })
+}
+
+/// The normals (and albedo, confidence, and with NIK the depth) a normals stage gives.
+struct Estimate {
+    normals: NormalMap,
+    albedo: Option<GrayImage>,
+    confidence: Option<GrayImage>,
+    depth: Option<DepthMap>,
+}

@@ -1,0 +1,165 @@
+//! Writing the products of a job — maps, mesh, `run.json` and `report.html` — through
+//! [`crate::io`] (every file atomically: a failed run leaves no half-written file).
+
+use std::path::{Path, PathBuf};
+
+use super::figures::run_json;
+use super::{Job, Output};
+use crate::error::Result;
+use crate::report::{raster::ColorMap, Report, Section};
+use crate::{io, mesh, sphere};
+
+/// The title (the dataset's name) and subtitle (how it was solved) of a report.
+#[derive(Clone, Debug, Default)]
+pub struct Titles {
+    /// Title of the report and `dataset` of `run.json`.
+    pub title: String,
+    /// One line under the title.
+    pub subtitle: String,
+}
+
+/// Write every product of `p` into the directory `out` (created): `normals.npy/png`,
+/// `albedo.npy/png`, `confidence.npy/png`, `depth.npy/png`, `mesh.ply`,
+/// `sphere_overlay.png`, `convergence.csv` and plots (those the run has), `report.html`
+/// and `run.json`. `extra_stages` (e.g. loading) come before the pipeline's own stages
+/// in the timings. Returns the path of the report.
+pub fn write_outputs(
+    out: &Path,
+    titles: &Titles,
+    job: &Job,
+    p: &Output,
+    extra_stages: &[(String, f64)],
+) -> Result<PathBuf> {
+    write_maps(out, job, p)?;
+    let mut stages: Vec<(String, f64)> = extra_stages.to_vec();
+    stages.extend(p.stages.iter().cloned());
+    let report_path = out.join("report.html");
+    let html = build_report(titles, job, p, &stages)?;
+    io::write_text(&report_path, &html)?;
+    io::write_text(
+        &out.join("run.json"),
+        &run_json(&titles.title, p, &stages).to_string(),
+    )?;
+    Ok(report_path)
+}
+
+fn write_maps(out: &Path, job: &Job, p: &Output) -> Result<()> {
+    let mask = &job.mask;
+    io::write_normals(&out.join("normals.npy"), &p.normals)?;
+    io::write_normals_png(&out.join("normals.png"), &p.normals, Some(mask))?;
+    if let Some(a) = &p.albedo {
+        io::write_gray_npy(&out.join("albedo.npy"), a)?;
+        io::write_gray_png(&out.join("albedo.png"), a)?;
+    }
+    if let Some(c) = &p.confidence {
+        io::write_gray_npy(&out.join("confidence.npy"), c)?;
+        io::write_gray_png(&out.join("confidence.png"), c)?;
+    }
+    io::write_gray_npy(&out.join("depth.npy"), &p.depth)?;
+    io::write_depth_png(&out.join("depth.png"), &p.depth, Some(mask))?;
+    io::write_atomic(&out.join("mesh.ply"), |w| {
+        mesh::write_ply_binary(&p.mesh, &mut *w)
+    })?;
+    if let Some(det) = &p.circle {
+        let png = overlay_png(det)?;
+        io::write_bytes(&out.join("sphere_overlay.png"), &png)?;
+    }
+    if let Some(ir) = &p.interreflections {
+        io::write_text(&out.join("convergence.csv"), &ir.csv)?;
+        for (name, png) in &ir.plots {
+            io::write_bytes(&out.join(name), png)?;
+        }
+    }
+    Ok(())
+}
+
+fn overlay_png(det: &sphere::Detection) -> Result<Vec<u8>> {
+    crate::report::raster::encode_png(&sphere::overlay(&det.max_image, &det.circle))
+}
+
+/// The HTML report of a job (`stages`: every timing to list, in order).
+pub fn build_report(
+    titles: &Titles,
+    job: &Job,
+    p: &Output,
+    stages: &[(String, f64)],
+) -> Result<String> {
+    let mask = Some(&job.mask);
+    let mut r = Report::new(&titles.title);
+    r.subtitle(&titles.subtitle);
+    r.inputs(&job.target);
+    r.surface(&p.depth, p.albedo.as_ref())?;
+    r.normals(&p.normals, mask)?;
+    if let Some(a) = &p.albedo {
+        r.albedo(a, mask)?;
+    }
+    if let Some(c) = &p.confidence {
+        r.scalar("confidence", c, mask, ColorMap::Viridis)?;
+    }
+    r.depth(&p.depth);
+    if let Some(det) = &p.circle {
+        r.png(
+            Section::Maps,
+            "calibration sphere: circle found",
+            overlay_png(det)?,
+        )?;
+    }
+    error_maps(&mut r, job, p)?;
+    if let Some(ir) = &p.interreflections {
+        for (name, png) in &ir.plots {
+            r.png(
+                Section::Interreflections,
+                &name.replace(".png", ""),
+                png.clone(),
+            )?;
+        }
+    }
+    for (k, v) in &p.figures {
+        r.figure(k, v);
+    }
+    for (k, s) in stages {
+        r.figure(format!("time: {k}"), format!("{s:.2} s"));
+    }
+    r.to_html()
+}
+
+fn error_maps(r: &mut Report, job: &Job, p: &Output) -> Result<()> {
+    let mask = Some(&job.mask);
+    if let Some((st, map)) = &p.accuracy.angular {
+        let max = (st.mean * 4.0).clamp(1.0, 30.0) as f32;
+        r.error_map(
+            "angular error of the normals",
+            map,
+            mask,
+            max.round().max(1.0),
+            "°",
+        )?;
+    }
+    if let Some((st, map)) = &p.accuracy.depth {
+        let abs = map.map(|v| v.abs());
+        let max = (st.rmse * 3.0).max(0.01) as f32;
+        r.error_map(
+            "|depth error| after offset",
+            &abs,
+            mask,
+            round_nice(max),
+            "px",
+        )?;
+    }
+    Ok(())
+}
+
+fn round_nice(x: f32) -> f32 {
+    let e = 10f32.powf(x.log10().floor());
+    let m = x / e;
+    let n = if m <= 1.0 {
+        1.0
+    } else if m <= 2.0 {
+        2.0
+    } else if m <= 5.0 {
+        5.0
+    } else {
+        10.0
+    };
+    n * e
+}

@@ -1,0 +1,237 @@
+//! The stages of [`super::solve`], each a small function, and the timer that runs them.
+
+use std::time::Instant;
+
+use super::{Accuracy, Estimate, Interreflections, Job, Normals, Options};
+use crate::error::Result;
+use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
+use crate::progress::Progress;
+use crate::{eval, integrate, interreflect, lambertian, lut, sphere};
+
+/// Runs named stages, reporting `stage(i, n, name, …)` to the progress and timing each.
+pub(super) struct Stages<'a> {
+    pub list: Vec<(String, f64)>,
+    total: usize,
+    progress: &'a dyn Progress,
+}
+
+impl<'a> Stages<'a> {
+    pub fn new(total: usize, progress: &'a dyn Progress) -> Self {
+        Stages {
+            list: Vec::new(),
+            total,
+            progress,
+        }
+    }
+
+    /// Run stage `name`; its errors are wrapped with "stage 'name' failed".
+    pub fn run<T>(&mut self, name: &str, f: impl FnOnce(&dyn Progress) -> Result<T>) -> Result<T> {
+        let i = self.list.len() + 1;
+        let total = self.total.max(i);
+        self.progress.stage(i, total, name, None);
+        let t0 = Instant::now();
+        let out = f(self.progress).map_err(|e| e.context(format!("stage '{name}' failed")))?;
+        let dt = t0.elapsed().as_secs_f64();
+        self.progress.stage(i, total, name, Some(dt));
+        self.list.push((name.to_string(), dt));
+        Ok(out)
+    }
+}
+
+/// Stages before the accuracy one: normals (1 to 3), integration (unless NIK made the
+/// depth), mesh.
+pub(super) fn planned(normals: &Normals, interreflections: bool) -> usize {
+    match normals {
+        Normals::Lookup { .. } => 5,
+        Normals::Calibrated(_) => 3,
+        Normals::Lambertian { .. } if interreflections => 2,
+        Normals::Lambertian { .. } => 3,
+    }
+}
+
+type NormalsResult = (
+    Estimate,
+    Option<sphere::Detection>,
+    Option<Interreflections>,
+);
+
+/// Normals (and albedo, confidence, and with NIK the depth) by the job's method.
+pub(super) fn normals(
+    st: &mut Stages,
+    job: &Job,
+    opts: &Options,
+    method: integrate::Method,
+) -> Result<NormalsResult> {
+    Ok(match &job.normals {
+        Normals::Lookup {
+            sphere,
+            sphere_mask,
+        } => {
+            let det = st.run("sphere detection", |_| {
+                detect(sphere, sphere_mask.clone(), opts)
+            })?;
+            let table = st.run("lookup table", |_| {
+                lut::Table::build(sphere, &det.circle, &opts.build)
+            })?;
+            let est = st.run("lookup", |p| lookup(job, &table, opts, p))?;
+            (est, Some(det), None)
+        }
+        Normals::Calibrated(cal) => {
+            let est = st.run("lookup", |p| lookup(job, &cal.table, opts, p))?;
+            (est, cal.detection.clone(), None)
+        }
+        Normals::Lambertian { lights } if !opts.interreflections => {
+            let est = st.run("Lambertian photometric stereo", |_| {
+                lambertian_normals(&job.target, &job.mask, lights, opts)
+            })?;
+            (est, None, None)
+        }
+        Normals::Lambertian { lights } => {
+            let truth = job.truth.depth.as_ref();
+            let (ir, est) = st.run("interreflection removal", |p| {
+                nik(job, lights, opts, method, truth, p)
+            })?;
+            (est, None, Some(ir))
+        }
+    })
+}
+
+/// The sphere detection of a lookup job (inside `sphere_mask` when given).
+pub(super) fn detect(
+    stack: &ImageStack,
+    sphere_mask: Option<Mask>,
+    opts: &Options,
+) -> Result<sphere::Detection> {
+    let d = sphere::DetectOptions {
+        mask: sphere_mask,
+        ..opts.detect.clone()
+    };
+    sphere::detect(stack, &d)
+}
+
+fn lookup(job: &Job, table: &lut::Table, opts: &Options, p: &dyn Progress) -> Result<Estimate> {
+    let out = lut::solve(
+        &job.target,
+        &job.mask,
+        std::slice::from_ref(table),
+        &opts.lookup,
+        p,
+    )?;
+    Ok(Estimate {
+        normals: out.normals,
+        albedo: out.albedo,
+        confidence: Some(out.confidence),
+        depth: None,
+    })
+}
+
+fn lambertian_normals(
+    stack: &ImageStack,
+    mask: &Mask,
+    lights: &Lights,
+    opts: &Options,
+) -> Result<Estimate> {
+    let out = lambertian::solve(stack, mask, lights, &opts.lambertian)?;
+    Ok(Estimate {
+        normals: out.normals,
+        albedo: Some(out.albedo),
+        confidence: None,
+        depth: None,
+    })
+}
+
+/// Depth from the normals; masked least squares is weighted by the confidence.
+pub(super) fn integrate_normals(
+    normals: &NormalMap,
+    mask: &Mask,
+    confidence: Option<&GrayImage>,
+    method: integrate::Method,
+    progress: &dyn Progress,
+) -> Result<DepthMap> {
+    let opts = integrate::Options {
+        method,
+        weights: confidence
+            .filter(|_| method == integrate::Method::Lsq)
+            .cloned(),
+        ..Default::default()
+    };
+    Ok(integrate::solve_with_progress(normals, mask, &opts, progress)?.depth)
+}
+
+fn nik(
+    job: &Job,
+    lights: &Lights,
+    opts: &Options,
+    method: integrate::Method,
+    truth: Option<&DepthMap>,
+    progress: &dyn Progress,
+) -> Result<(Interreflections, Estimate)> {
+    let mask = &job.mask;
+    let mut nik_opts = opts.nik.clone();
+    nik_opts.integrate.method = method;
+    let out = interreflect::solve(&job.target, mask, lights, &nik_opts, progress)?;
+    let row = interreflect::plot::middle_row(mask).unwrap_or(mask.height / 2);
+    let plots = vec![
+        (
+            "profiles.png".to_string(),
+            interreflect::profile_plot_png(&out, mask, row, truth)?,
+        ),
+        (
+            "convergence.png".to_string(),
+            interreflect::convergence_plot_png(&out)?,
+        ),
+    ];
+    let best = out.best_shape().clone();
+    let ir = Interreflections {
+        summary: out.summary(),
+        csv: out.convergence_csv(),
+        plots,
+        iterations: out.iterations.len() - 1,
+        depth_before: out.iterations[0].depth_range,
+        depth_after: out.iterations[out.best].depth_range,
+        albedo_before: out.iterations[0].mean_albedo,
+        albedo_after: out.iterations[out.best].mean_albedo,
+    };
+    let est = Estimate {
+        normals: best.normals,
+        albedo: Some(best.albedo),
+        confidence: None,
+        depth: Some(best.depth),
+    };
+    Ok((ir, est))
+}
+
+/// Angular error of the normals and depth error after the best offset, where the job
+/// has the truth.
+pub(super) fn accuracy(job: &Job, normals: &NormalMap, depth: &DepthMap) -> Result<Accuracy> {
+    let angular = match &job.truth.normals {
+        Some(gt) => Some((
+            eval::angular_errors(normals, gt, &job.mask)?,
+            eval::angular_error_map(normals, gt, &job.mask)?,
+        )),
+        None => None,
+    };
+    let depth_acc = match &job.truth.depth {
+        Some(gt) => {
+            let stats = eval::depth_rmse(depth, gt, &job.mask)?;
+            let off = stats.offset as f32;
+            let map = GrayImage {
+                width: depth.width,
+                height: depth.height,
+                data: depth
+                    .data
+                    .iter()
+                    .zip(&gt.data)
+                    .zip(&job.mask.data)
+                    .map(|((e, g), &m)| if m { e + off - g } else { f32::NAN })
+                    .collect(),
+            };
+            Some((stats, map))
+        }
+        None => None,
+    };
+    Ok(Accuracy {
+        angular,
+        depth: depth_acc,
+    })
+}
