@@ -31,8 +31,25 @@
 //!    by RANSAC scoring the fraction of the rim covered; accepted when at least
 //!    [`DetectOptions::min_rim_coverage`] of the rim shows.
 //!
+//! 7. **The rim model** (module `rim`, [`DetectOptions::rim_model`], on by default):
+//!    the circle of steps 3–6 is refined by fitting the image near the rim with a
+//!    blurred profile (background | a₀ + a₁√s + a₂s inside, Gaussian blur σ fitted),
+//!    sector by sector, on the maximum and on the mean image; the detection reports
+//!    the circle's 1-σ uncertainty ([`Detection::uncertainty_px`]) and the blur.
+//!    Mid-level crossings are biased by optical blur and by the √s shading next to the
+//!    rim (0.1–0.35 px at σ 0.5–1 px, over 1 px on a dark rim); the model is not.
+//!    When the pixels fit better as point samples (a render such as `synth`'s, with a
+//!    staircase silhouette and no blur) the circle of step 3 is kept: mid-level
+//!    crossings are unbiased there.
+//!
+//! **A mask only says where to search.** With [`DetectOptions::mask`] (the sphere
+//! folder's `mask.png` in `calibrate` and `run --sphere` alike, or `--mask`) steps 2–6
+//! look only inside it, but step 7 fits the rim on the unmasked images, so the
+//! circle is the images' whichever mask is given (a mask that covers the sphere gives
+//! the same circle within 0.01 px as none).
+//!
 //! With [`DetectOptions::mask_outline`] steps 1–2 use a given silhouette mask instead
-//! of the images (for spheres whose rim does not show at all).
+//! of the images (for spheres whose rim does not show at all); no rim model then.
 //!
 //! References: N. Otsu, "A threshold selection method from gray-level histograms",
 //! IEEE SMC 1979; I. Kåsa, "A circle fitting procedure and its error analysis",
@@ -316,6 +333,11 @@ fn refine_on_rim(
     let Some((fit, name, _)) = best else {
         return det;
     };
+    if fit.point_sampled {
+        // a point-sampled render: its staircase edge has no blur, and the mid-level
+        // crossings of step 3 are unbiased there (and less noisy than the model)
+        return det;
+    }
     let spread = fits
         .iter()
         .flat_map(|a| fits.iter().map(|b| rim::distance(&a.0.circle, &b.0.circle)))
@@ -545,6 +567,12 @@ impl Crop {
                 "the maximum image is uniform (values {lo} to {hi})"
             )));
         }
+        // the mask only says where to search: edge profiles are sampled on the raw
+        // values (non-finite ones replaced)
+        let raw: Vec<f32> = values
+            .iter()
+            .map(|&v| if v.is_finite() { v } else { lo })
+            .collect();
         for (v, k) in values.iter_mut().zip(&keep) {
             if !*k {
                 *v = lo;
@@ -570,7 +598,7 @@ impl Crop {
         Ok(Crop {
             width,
             height,
-            values,
+            values: raw,
             component,
             area,
             min_step,
