@@ -26,7 +26,7 @@ pub struct Args {
     #[arg(long, default_value_t = 3)]
     pub repeat: usize,
     /// Comma-separated row names to run (default: all).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(ROW_NAMES))]
     pub only: Vec<String>,
 }
 
@@ -49,6 +49,17 @@ pub struct Row {
     /// Build the input (not timed) and return the job.
     pub prepare: fn(&Args) -> anyhow::Result<Job>,
 }
+
+/// The names of [`ROWS`], in order (the values `--only` accepts).
+pub const ROW_NAMES: [&str; 7] = [
+    "fft-floor",
+    "fc",
+    "fc-reflect",
+    "dct",
+    "path",
+    "lsq",
+    "lookup",
+];
 
 /// The rows, in print order. The first is the FFT floor the Fourier rows are compared to.
 pub const ROWS: &[Row] = &[
@@ -240,4 +251,36 @@ pub fn run(args: Args, _global: Global) -> anyhow::Result<()> {
         rayon::current_num_threads()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    #[test]
+    fn row_names_match_the_rows() {
+        let names: Vec<&str> = ROWS.iter().map(|r| r.name).collect();
+        assert_eq!(names, ROW_NAMES);
+    }
+
+    #[test]
+    fn only_rejects_an_unknown_row_and_lists_the_names() {
+        let err = Cli::try_parse_from(["bench", "--only", "fc,foo"])
+            .err()
+            .expect("unknown row must be an error")
+            .to_string();
+        assert!(err.contains("foo"), "{err}");
+        for name in ROW_NAMES {
+            assert!(err.contains(name), "{name} missing from: {err}");
+        }
+        let ok = Cli::try_parse_from(["bench", "--only", "fc,dct"]).unwrap();
+        assert_eq!(ok.args.only, ["fc", "dct"]);
+    }
 }

@@ -14,8 +14,8 @@ photostereo calibrate data/sphere -o sphere.lut --material 'red plastic'\n  \
 photostereo calibrate data/scene --sphere-region 10,20,200,200 -o sphere.lut\n  \
 photostereo calibrate data/sphere --circle 256.5,170,120 --rim 3 -o sphere.lut\n\n\
 SPHERE_DIR holds the K images of a sphere of the target's material under the target's lights \
-(DiLiGenT layout). The sphere is found in the maximum of the images; overlay.png (the circle \
-on that image) is written beside the table: check it.")]
+(DiLiGenT layout). The sphere is found in the maximum of the images; NAME_overlay.png (the circle \
+on that image; NAME = the table's file name without extension) is written beside the table: check it.")]
 pub struct Args {
     /// Directory with the sphere's images.
     #[arg(value_name = "SPHERE_DIR")]
@@ -80,7 +80,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     } else {
         "detected"
     };
-    say(format!("sphere circle ({source}): {}", det.describe()));
+    say(crate::lights::circle_line(source, &det));
     if let Some(w) = det.warning() {
         eprintln!("{w}");
     }
@@ -102,7 +102,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     // everything is computed before the first file is written
     let bytes = table.to_bytes();
     let png = sphere::encode_png(&sphere::overlay(&det.max_image, &c))?;
-    let overlay_path = args.output.with_file_name("overlay.png");
+    let overlay_path = crate::lights::side_file(&args.output, "overlay.png");
     io::write_bytes(&args.output, &bytes)?;
     io::write_bytes(&overlay_path, &png)?;
     say(format!(

@@ -34,6 +34,7 @@ pub struct Args {
 
 /// Run the subcommand.
 pub fn run(args: Args, global: Global) -> Result<()> {
+    crate::check_output_dir(&args.out)?;
     anyhow::ensure!(
         (32..=2048).contains(&args.size),
         "--size {} is out of range: use 32 to 2048 pixels",
@@ -141,10 +142,12 @@ fn lambertian_bowl(out: &Path, size: usize, global: Global) -> Result<Vec<String
             depth: Some(scene.depth),
         },
     };
-    let opts = pipeline::Options {
+    let mut opts = pipeline::Options {
         interreflections: true,
         ..Default::default()
     };
+    // Rendered in radiance units (exposure 1, no gain): the scale is known.
+    opts.nik.scale_known = true;
     let p = pipeline::solve(&job, &opts, &Bar::new(global.quiet))?;
     let extra = [("render".to_string(), render_s)];
     let titles = Titles {

@@ -46,6 +46,7 @@ pub struct Args {
 
 /// Run the subcommand.
 pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
+    crate::check_output_dir(&args.output)?;
     let opts = io::LoadOptions {
         require_lights: true,
         require_mask: true,
@@ -61,7 +62,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         max_iter: args.max_iter,
         tol: args.tol,
         radiosity: RadiosityOptions {
-            block: args.block.unwrap_or_else(|| auto_block(&mask)),
+            block: args.block.unwrap_or(0),
             visibility: if args.azimuths == 0 {
                 Visibility::None
             } else {
@@ -91,23 +92,6 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Smallest block ≥ 2 whose grid has at most 4096 cells inside the mask (a dense kernel of
-/// 64 MiB; bounced light is smooth, so coarse facets cost little accuracy).
-fn auto_block(mask: &photostereo::Mask) -> usize {
-    (2..64)
-        .find(|&b| {
-            let (gw, gh) = (mask.width.div_ceil(b), mask.height.div_ceil(b));
-            let mut cells = vec![false; gw * gh];
-            for (i, &m) in mask.data.iter().enumerate() {
-                if m {
-                    cells[(i / mask.width / b) * gw + (i % mask.width) / b] = true;
-                }
-            }
-            cells.iter().filter(|&&c| c).count() <= 4096
-        })
-        .unwrap_or(64)
-}
-
 fn write_outputs(
     args: &Args,
     out: &NikOutput,
@@ -132,10 +116,10 @@ fn write_outputs(
         Some(r) => r,
         None => interreflect::plot::middle_row(mask).context("the mask is empty")?,
     };
-    io::write_bytes(
-        &dir.join("profile.png"),
-        &interreflect::profile_plot_png(out, mask, row, truth)?,
-    )?;
+    // `profiles.png` as `run` names it; `profile.png` is its earlier name, kept.
+    let profiles = interreflect::profile_plot_png(out, mask, row, truth)?;
+    io::write_bytes(&dir.join("profiles.png"), &profiles)?;
+    io::write_bytes(&dir.join("profile.png"), &profiles)?;
     io::write_bytes(
         &dir.join("convergence.png"),
         &interreflect::convergence_plot_png(out)?,

@@ -18,7 +18,10 @@ SPHERE_DIR holds the K sphere images (DiLiGenT layout: filenames.txt or 001.png,
 The sphere is found in the maximum of the images or, for a dark chrome sphere, from the edges \
 where its rim contrasts with what lies behind it; where the rim does not show at all the outline \
 of the mask (SPHERE_DIR/mask.png or --mask) is used. \
-overlay.png (the circle on the maximum image) is written beside the output: check it.")]
+NAME_overlay.png (the circle on the maximum image; NAME = the output's file name without \
+extension) is written beside the output: check it. With --matte the relative intensities go to \
+NAME_intensities.txt (light_intensities.txt when the output is light_directions.txt, the \
+dataset layout).")]
 pub struct Args {
     /// Directory with the sphere's images.
     #[arg(value_name = "SPHERE_DIR")]
@@ -66,7 +69,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             println!("{s}");
         }
     };
-    say(format!("sphere circle ({source}): {}", det.describe()));
+    say(circle_line(source, &det));
     if let Some(w) = det.warning() {
         eprintln!("{w}");
     }
@@ -95,10 +98,10 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     say(table(&data.stack.names, &lights));
     // everything is computed before the first file is written
     let png = sphere::encode_png(&sphere::overlay(&det.max_image, &c))?;
-    let overlay_path = sibling(&args.output, "overlay.png");
+    let overlay_path = side_file(&args.output, "overlay.png");
     io::write_light_directions(&args.output, &lights)?;
     if matte {
-        let path = sibling(&args.output, "light_intensities.txt");
+        let path = intensities_file(&args.output);
         io::write_intensities(&path, &lights)?;
         say(format!(
             "relative intensities written to {}",
@@ -180,8 +183,53 @@ fn table(names: &[String], lights: &Lights) -> String {
     s
 }
 
-fn sibling(output: &Path, name: &str) -> PathBuf {
-    output.with_file_name(name)
+/// The light directions of a `--lights FILE` option for a target of `k` images, with
+/// messages that name the file and say what to do.
+pub(crate) fn read_lights_option(file: &Path, k: usize) -> anyhow::Result<Lights> {
+    if !file.is_file() {
+        anyhow::bail!(
+            "--lights {}: no such file; give a text file of {k} lines `x y z` (one light \
+             direction per image, in image order), or leave --lights out to use the dataset's \
+             light_directions.txt",
+            file.display()
+        );
+    }
+    let lights = io::read_lights(file).with_context(|| format!("--lights {}", file.display()))?;
+    if lights.len() != k {
+        anyhow::bail!(
+            "--lights {}: {} directions for {k} images; give one `x y z` line per image",
+            file.display(),
+            lights.len()
+        );
+    }
+    Ok(lights)
+}
+
+/// A file beside `output` named after it: `out/sphere.lut` + `overlay.png` →
+/// `out/sphere_overlay.png`, so that runs with different outputs do not overwrite each other.
+pub(crate) fn side_file(output: &Path, suffix: &str) -> PathBuf {
+    let stem = output
+        .file_stem()
+        .map_or_else(|| "output".into(), |s| s.to_string_lossy().into_owned());
+    output.with_file_name(format!("{stem}_{suffix}"))
+}
+
+/// Where `lights --matte` writes the relative intensities: `light_intensities.txt` beside a
+/// dataset's `light_directions.txt` (where the loader looks), else `NAME_intensities.txt`.
+fn intensities_file(output: &Path) -> PathBuf {
+    if output
+        .file_name()
+        .is_some_and(|n| n == "light_directions.txt")
+    {
+        output.with_file_name("light_intensities.txt")
+    } else {
+        side_file(output, "intensities.txt")
+    }
+}
+
+/// The circle line of `lights` and `calibrate`: the fit quality only when there was a fit.
+pub(crate) fn circle_line(source: &str, det: &Detection) -> String {
+    format!("sphere circle ({source}): {}", det.describe())
 }
 
 fn numbers<const N: usize>(s: &str, what: &str) -> Result<[f64; N], String> {
@@ -213,4 +261,27 @@ pub(crate) fn parse_region(s: &str) -> Result<(usize, usize, usize, usize), Stri
         ));
     }
     Ok((v[0] as usize, v[1] as usize, v[2] as usize, v[3] as usize))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn side_files_are_named_after_the_output() {
+        let p = |s: &str| PathBuf::from(s);
+        assert_eq!(
+            side_file(&p("out/a.lut"), "overlay.png"),
+            p("out/a_overlay.png")
+        );
+        assert_eq!(
+            side_file(&p("lights.txt"), "overlay.png"),
+            p("lights_overlay.png")
+        );
+        assert_eq!(
+            intensities_file(&p("d/light_directions.txt")),
+            p("d/light_intensities.txt")
+        );
+        assert_eq!(intensities_file(&p("d/l2.txt")), p("d/l2_intensities.txt"));
+    }
 }

@@ -76,7 +76,104 @@ fn main() {
         Command::Bench(a) => bench::run(a, global),
     };
     if let Err(err) = result {
-        eprintln!("error: {err:#}");
+        eprintln!("error: {}", error_message(&err));
         std::process::exit(1);
+    }
+}
+
+/// The error and its causes joined by ": ", leaving out a cause that the message before it
+/// already quotes (library errors often print their source too).
+fn error_message(err: &anyhow::Error) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    for cause in err.chain() {
+        let s = cause.to_string();
+        if !parts.last().is_some_and(|p| p.contains(&s)) {
+            parts.push(s);
+        }
+    }
+    parts.join(": ")
+}
+
+/// Refuse an output directory that is an existing file, before any work is done.
+pub fn check_output_dir(dir: &std::path::Path) -> anyhow::Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        anyhow::bail!(
+            "{}: is a file, not a directory; give -o a directory (it is created) or a path that does not exist yet",
+            dir.display()
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use clap::CommandFactory;
+
+    /// Words of a shell command line (single quotes group; `#` starts a comment).
+    fn words(line: &str) -> Vec<String> {
+        let line = line.split(" #").next().unwrap_or(line);
+        let mut out = Vec::new();
+        let (mut cur, mut quoted, mut any) = (String::new(), false, false);
+        for ch in line.chars() {
+            match ch {
+                '\'' => (quoted, any) = (!quoted, true),
+                c if c.is_whitespace() && !quoted => {
+                    if any {
+                        out.push(std::mem::take(&mut cur));
+                        any = false;
+                    }
+                }
+                c => (cur, any) = (cur + &c.to_string(), true),
+            }
+        }
+        if any {
+            out.push(cur);
+        }
+        out
+    }
+
+    /// Every `photostereo …` line of the README's shell blocks and of every `--help`.
+    fn example_lines() -> Vec<String> {
+        let readme = include_str!("../../../README.md");
+        let mut lines: Vec<String> = readme
+            .lines()
+            .map(|l| l.trim().replace("cargo run --release -- ", "photostereo "))
+            .filter(|l| l.starts_with("photostereo "))
+            .collect();
+        let mut cli = Cli::command();
+        for sub in cli.get_subcommands_mut() {
+            let help = sub.render_long_help().to_string();
+            lines.extend(
+                help.lines()
+                    .map(str::trim)
+                    .filter(|l| l.starts_with("photostereo "))
+                    .map(String::from),
+            );
+        }
+        lines
+    }
+
+    /// The examples parse: every flag they use exists and takes what they give it (running
+    /// them on data is the job of `tests/first_hour.rs`).
+    #[test]
+    fn every_example_of_the_readme_and_the_help_parses() {
+        let lines = example_lines();
+        assert!(lines.len() >= 25, "only {} examples found", lines.len());
+        for line in &lines {
+            if let Err(e) = Cli::try_parse_from(words(line)) {
+                panic!("`{line}` does not parse:\n{e}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_cause_quoted_by_its_message_is_not_repeated() {
+        let io = std::io::Error::from_raw_os_error(17);
+        let err = anyhow::Error::new(io).context("out: File exists (os error 17)");
+        assert_eq!(error_message(&err), "out: File exists (os error 17)");
+        let err = anyhow::anyhow!("root cause").context("loading x");
+        assert_eq!(error_message(&err), "loading x: root cause");
     }
 }

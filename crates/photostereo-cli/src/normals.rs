@@ -16,7 +16,8 @@ use std::path::{Path, PathBuf};
 photostereo normals data/target --lut sphere.lut -o out\n  \
 photostereo normals data/target --lut diffuse.lut --lut specular.lut -o out\n  \
 photostereo normals data/target --lut sphere.lut --normalize -o out\n  \
-photostereo normals data/target --lambertian -o out\n\n\
+photostereo normals data/target --lambertian -o out\n  \
+photostereo normals data/target --lambertian --lights lights.txt -o out\n\n\
 Writes normals.npy (float32 H×W×3), normals.png, confidence.npy (lookup: 1 = perfect match, \
 low where lights are shadowed or the match is poor), residual.npy, albedo.npy (--normalize or \
 --lambertian) and weights_1.npy, weights_2.npy, weights_sigma.npy (two tables: the mix of \
@@ -47,6 +48,10 @@ pub struct Args {
     /// With --lambertian: plain least squares over all samples (no rejection).
     #[arg(long, requires = "lambertian")]
     plain: bool,
+    /// With --lambertian: light directions file (K lines `x y z`) instead of
+    /// TARGET_DIR/light_directions.txt.
+    #[arg(long, value_name = "FILE", requires = "lambertian")]
+    lights: Option<PathBuf>,
     /// Object mask (PNG/TIFF/.npy, non-zero = object); default TARGET_DIR/mask.png,
     /// else the whole image.
     #[arg(long, value_name = "MASK")]
@@ -65,7 +70,7 @@ struct Results {
 /// Run the subcommand.
 pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     let load = io::LoadOptions {
-        require_lights: args.lambertian,
+        require_lights: args.lambertian && args.lights.is_none(),
         mask_path: args.mask.clone(),
         require_mask: args.mask.is_some(),
         ..io::LoadOptions::default()
@@ -79,7 +84,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         Mask::full(data.stack.width, data.stack.height)
     });
     let results = if args.lambertian {
-        lambertian_normals(&data, &mask, args.plain, global)?
+        lambertian_normals(&data, &mask, &args, global)?
     } else {
         lookup_normals(&args, &data.stack, &mask, global)?
     };
@@ -91,9 +96,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
 }
 
 fn read_table(path: &Path) -> anyhow::Result<Table> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    Table::from_bytes(&bytes)
-        .with_context(|| format!("reading the lookup table {}", path.display()))
+    io::read_table(path).with_context(|| format!("reading the lookup table {}", path.display()))
 }
 
 fn lookup_normals(
@@ -157,14 +160,18 @@ fn lookup_normals(
 fn lambertian_normals(
     data: &io::Dataset,
     mask: &Mask,
-    plain: bool,
+    args: &Args,
     global: Global,
 ) -> anyhow::Result<Results> {
-    let lights = data
-        .lights
+    let from_file = match &args.lights {
+        Some(file) => Some(crate::lights::read_lights_option(file, data.stack.k)?),
+        None => None,
+    };
+    let lights = from_file
         .as_ref()
-        .context("--lambertian needs TARGET_DIR/light_directions.txt")?;
-    let opts = if plain {
+        .or(data.lights.as_ref())
+        .context("--lambertian needs TARGET_DIR/light_directions.txt or --lights FILE")?;
+    let opts = if args.plain {
         lambertian::Options::plain()
     } else {
         lambertian::Options::default()

@@ -63,9 +63,13 @@ pub struct Args {
     /// Also render a calibration sphere of this radius (pixels) into DIR/sphere/.
     #[arg(long, value_name = "RADIUS")]
     pub calib_sphere: Option<f64>,
-    /// Add interreflections: all bounces by radiosity on 2×2-pixel facets (Lambertian only).
+    /// Add interreflections: all bounces by radiosity on square facets (Lambertian only).
     #[arg(long)]
     pub interreflections: bool,
+    /// Facet size in pixels for --interreflections (1 = per pixel; larger is faster).
+    /// Default: the smallest block (at least 2) giving at most 4096 facet cells.
+    #[arg(long, requires = "interreflections")]
+    pub block: Option<usize>,
     /// Output directory (created).
     #[arg(short = 'o', long = "output", value_name = "DIR")]
     pub output: PathBuf,
@@ -85,6 +89,7 @@ fn material(name: &str) -> anyhow::Result<Material> {
 
 /// Run the subcommand.
 pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
+    crate::check_output_dir(&args.output)?;
     let kind: ShapeKind = args.shape.parse()?;
     let mut opts = SceneOptions {
         width: args.size,
@@ -103,7 +108,10 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     opts.exposure = exposure(&args, &opts)?;
     let bar = Bar::new(global.quiet);
     let scene = if args.interreflections {
-        let radiosity = photostereo::interreflect::RadiosityOptions::default();
+        let radiosity = photostereo::interreflect::RadiosityOptions {
+            block: args.block.unwrap_or(0),
+            ..Default::default()
+        };
         photostereo::interreflect::render_with_interreflections_report(&opts, &radiosity, &bar)
             .context("rendering with interreflections")?
             .0

@@ -313,6 +313,28 @@ fn demo_reports_show_shaded_surfaces_without_errors() {
         let seen = open(&browser, &page, &format!("demo-{scene}"));
         check_rendered(&seen, &format!("demo {scene} report"));
     }
+    to_docs("browser-demo-bowl/screenshot.png", "view-demo-bowl.png");
+    for plot in ["profiles.png", "convergence.png"] {
+        let src = out.join("bowl").join(plot);
+        assert!(src.is_file(), "no {}", src.display());
+        if std::env::var_os("PHOTOSTEREO_DOCS").is_some() {
+            std::fs::copy(&src, docs_dir().join(format!("plot-{plot}"))).unwrap();
+        }
+    }
+}
+
+fn docs_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs")
+}
+
+/// With `PHOTOSTEREO_DOCS=1`, copy a screenshot (relative to the test's temporary
+/// directory) into `docs/` under `name`: how the README's pictures are made.
+fn to_docs(shot: &str, name: &str) {
+    if std::env::var_os("PHOTOSTEREO_DOCS").is_some() {
+        let src = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(shot);
+        std::fs::copy(&src, docs_dir().join(name))
+            .unwrap_or_else(|e| panic!("copying {} to docs: {e}", src.display()));
+    }
 }
 
 /// Real photographs: Lambertian photometric stereo with lights calibrated from the chrome
@@ -331,7 +353,7 @@ fn real_buddha_report_shows_a_shaded_surface_without_errors() {
     let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("buddha");
     let _ = std::fs::remove_dir_all(&out);
     let status = Command::new(env!("CARGO_BIN_EXE_photostereo"))
-        .args(["--quiet", "run", "--lambertian", "--chrome"])
+        .args(["--quiet", "run", "--chrome"])
         .arg(real.join("chrome"))
         .arg(real.join("buddha"))
         .arg("-o")
@@ -341,4 +363,27 @@ fn real_buddha_report_shows_a_shaded_surface_without_errors() {
     assert!(status.success(), "photostereo run on the buddha failed");
     let seen = open(&browser, &out.join("report.html"), "buddha");
     check_rendered(&seen, "buddha report");
+    // The view starts facing the object and fitted to the panel (measured: 93k of 694k).
+    let (area, surface, _) = surface_pixels(&seen.shot);
+    eprintln!("buddha, first view: the surface fills {surface} of {area} view pixels");
+    assert!(surface * 10 > area, "the object fills little of the view");
+    // `#view=side` opens on the side view (the front/side/top buttons' views).
+    let side = open(&browser, &out.join("report.html#view=side"), "buddha-side");
+    // Seen edge-on a relief is thin (measured: 21k of 694k view pixels): no coverage test.
+    assert_eq!(side.viewer, "ready", "side view not ready");
+    assert!(
+        side.errors == 0 && side.log_errors.is_empty(),
+        "side view: script errors"
+    );
+    let (_, surface, levels) = surface_pixels(&side.shot);
+    assert!(
+        surface > 7_000 && levels >= 40,
+        "side view: {surface} px, {levels} levels"
+    );
+    assert!(
+        side.dom.contains("data-view=\"side\""),
+        "the side view was not selected"
+    );
+    to_docs("browser-buddha/screenshot.png", "view-buddha-front.png");
+    to_docs("browser-buddha-side/screenshot.png", "view-buddha-side.png");
 }

@@ -63,7 +63,7 @@ fn matte_sphere_directory_gives_the_lights() {
         .fold(0.0, f64::max);
     println!("worst light error through the CLI: {worst:.3}°");
     assert!(worst < 0.06, "worst light {worst}°"); // measured 0.020°
-    assert!(dir.join("calib/overlay.png").is_file());
+    assert!(dir.join("calib/light_directions_overlay.png").is_file());
     assert!(dir.join("calib/light_intensities.txt").is_file());
     let _ = std::fs::remove_dir_all(&dir);
 }

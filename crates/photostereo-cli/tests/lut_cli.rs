@@ -126,8 +126,11 @@ fn calibrate_plastic_sphere(data: &Path) -> PathBuf {
     println!("circle found: cx {cx}, cy {cy}, r {r} (true 42, 42, 40)");
     // noise-free render: within 0.1 px (the printout rounds to 0.01 px)
     assert!((cx - 42.0).abs() < 0.1 && (cy - 42.0).abs() < 0.1 && (r - 40.0).abs() < 0.1);
-    assert!(data.join("calib/overlay.png").is_file(), "overlay written");
-    let overlay = io::read_gray_image(&data.join("calib/overlay.png"), None);
+    assert!(
+        data.join("calib/plastic_overlay.png").is_file(),
+        "overlay written"
+    );
+    let overlay = io::read_gray_image(&data.join("calib/plastic_overlay.png"), None);
     assert!(overlay.is_ok(), "overlay is a readable image");
     let table = Table::from_bytes(&std::fs::read(&lut).unwrap()).unwrap();
     assert_eq!(table.k, 12);
@@ -264,7 +267,7 @@ fn assert_refused(args: &[&str], needles: &[&str], absent: &[&Path]) {
 fn calibrate_refuses_no_sphere_a_circle_outside_and_two_lights() {
     let root = tmp("calibrate-bad");
     let lut = root.join("out/s.lut");
-    let overlay = root.join("out/overlay.png");
+    let overlay = root.join("out/s_overlay.png");
 
     // black images: nothing to find
     let black = root.join("black");

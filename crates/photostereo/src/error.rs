@@ -11,12 +11,12 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 /// Everything that can go wrong in photostereo.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// A file or directory could not be read or written.
-    #[error("{path}: {source}")]
+    /// A file or directory could not be read or written. (`cause` is not the error's
+    /// `source()`: the message already holds it, and printing the chain would say it twice.)
+    #[error("{path}: {cause}")]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
 
     /// A required file or directory does not exist.
@@ -75,13 +75,11 @@ pub enum Error {
     #[error("{what}: {fix}")]
     InvalidInput { what: String, fix: String },
 
-    /// An error of a step, with what was being done (e.g. a pipeline stage).
-    #[error("{context}: {source}")]
-    Context {
-        context: String,
-        #[source]
-        source: Box<Error>,
-    },
+    /// An error of a step, with what was being done (e.g. a pipeline stage). (`inner`
+    /// is not the error's `source()`: the message already holds it, and printing the
+    /// chain would say it twice.)
+    #[error("{context}: {inner}")]
+    Context { context: String, inner: Box<Error> },
 }
 
 impl Error {
@@ -97,14 +95,14 @@ impl Error {
     pub fn context(self, context: impl Into<String>) -> Self {
         Error::Context {
             context: context.into(),
-            source: Box::new(self),
+            inner: Box::new(self),
         }
     }
 
     /// The innermost error below any [`Error::Context`] wrappers (what to classify by).
     pub fn root(&self) -> &Error {
         match self {
-            Error::Context { source, .. } => source.root(),
+            Error::Context { inner, .. } => inner.root(),
             other => other,
         }
     }
@@ -113,7 +111,7 @@ impl Error {
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
-            source,
+            cause: source,
         }
     }
 }

@@ -35,6 +35,11 @@
 //! assert!((back[0] - n[0]).abs() < 1e-6);
 //! ```
 
+// No panics on user data: `unwrap`/`expect` are denied in the library's own code (tests
+// may use them); a value that cannot be absent is written without them, or allowed
+// where it is used, with the reason.
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
+
 pub mod error;
 pub mod eval;
 pub mod image;
@@ -53,3 +58,8 @@ pub mod synth;
 
 pub use error::{Error, Result};
 pub use image::{DepthMap, GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
+
+/// The README's Rust code, compiled and run by `cargo test --doc` so that it stays true.
+#[doc = include_str!("../../../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

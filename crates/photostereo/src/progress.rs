@@ -14,7 +14,8 @@ pub trait Progress: Sync {
     /// Stage `index` (1-based) of `total` of a pipeline starts (`seconds` = `None`) or
     /// has ended after `seconds` (see [`crate::pipeline`]).
     fn stage(&self, _index: usize, _total: usize, _name: &str, _seconds: Option<f64>) {}
-    /// A one-line note for the user (where the lights came from, a warning).
+    /// A one-line note for the user as it happens (where the lights came from, a warning,
+    /// one row per iteration of a loop).
     fn note(&self, _message: &str) {}
 }
 

@@ -99,7 +99,14 @@ fn plots_are_png_images_of_the_stated_size() {
     assert!(coloured > 500, "only {coloured} coloured pixels");
     let png = convergence_plot_png(&out).unwrap();
     let img = image::load_from_memory(&png).unwrap();
-    assert_eq!((img.width(), img.height()), (800, 400));
+    assert_eq!((img.width(), img.height()), (800, 600));
+    // The tolerance is drawn (dashed red line on the log axis of the upper panel).
+    let red = img
+        .to_rgb8()
+        .pixels()
+        .filter(|p| p[0] > 150 && p[1] < 80 && p[2] < 80)
+        .count();
+    assert!(red > 300, "tolerance line: only {red} red pixels");
     assert!(
         profile_plot_png(&out, &mask, 99, None).is_err(),
         "a row outside the image is an error"

@@ -27,10 +27,7 @@ fn real_buddha_loads() {
     assert_eq!(ds.stack.names.first().map(String::as_str), Some("00.png"));
     let mask = ds.mask.as_ref().unwrap();
     let inside = mask.count();
-    assert!(
-        inside > 10_000 && inside < 512 * 340,
-        "mask pixels {inside}"
-    );
+    assert_eq!(inside, 30528, "mask pixels");
     let lights = ds.lights.as_ref().unwrap();
     assert_eq!(lights.len(), 12);
     // First line of light_directions.txt, normalised (it is already unit).
@@ -43,6 +40,7 @@ fn real_buddha_loads() {
         "buddha: {inside} mask pixels, {} saturated samples",
         ds.saturated
     );
+    assert_eq!(ds.saturated, 3, "saturated samples of the buddha");
 }
 
 #[test]
@@ -59,6 +57,7 @@ fn real_chrome_loads_without_lights() {
     assert!(ds.mask.as_ref().unwrap().count() > 1000);
     // Mirror-sphere highlights clip: there are saturated samples inside the mask.
     println!("chrome: {} saturated samples", ds.saturated);
+    assert_eq!(ds.saturated, 865, "saturated samples of the chrome sphere");
     let opts = LoadOptions {
         require_lights: true,
         ..LoadOptions::default()

@@ -14,7 +14,7 @@ use crate::Global;
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:\n  \
     photostereo run --sphere data/sphere data/vase -o out/vase\n  \
-    photostereo run --lambertian --chrome real/chrome real/buddha -o out/buddha\n  \
+    photostereo run --chrome real/chrome real/buddha -o out/buddha\n  \
     photostereo run --lambertian --interreflections data/bowl -o out/bowl")]
 pub struct Args {
     /// Target dataset directory (DiLiGenT layout: images, optional filenames.txt,
@@ -25,7 +25,7 @@ pub struct Args {
     pub out: PathBuf,
     /// Calibration sphere dataset of the same material under the same lights:
     /// calibration-based photometric stereo (lookup table).
-    #[arg(long, conflicts_with = "lambertian")]
+    #[arg(long, conflicts_with_all = ["lambertian", "chrome"])]
     pub sphere: Option<PathBuf>,
     /// Lambertian photometric stereo with known lights (from the dataset's
     /// light_directions.txt, --lights or --chrome).
@@ -35,17 +35,21 @@ pub struct Args {
     #[arg(long, requires = "lambertian", conflicts_with = "chrome")]
     pub lights: Option<PathBuf>,
     /// Chrome sphere dataset under the same lights: calibrate the light directions from
-    /// its highlights.
-    #[arg(long, requires = "lambertian")]
+    /// its highlights (implies --lambertian). Writes lights.txt and chrome_overlay.png.
+    #[arg(long)]
     pub chrome: Option<PathBuf>,
     /// Remove interreflections (Nayar–Ikeuchi–Kanade iteration; Lambertian only).
-    #[arg(long, requires = "lambertian")]
+    #[arg(long)]
     pub interreflections: bool,
+    /// Facet size in pixels for --interreflections (1 = per pixel; larger is faster).
+    /// Default: the smallest block (at least 2) giving at most 4096 facet cells.
+    #[arg(long, requires = "interreflections")]
+    pub block: Option<usize>,
     /// Multiply the target images by this factor to bring them to radiance units, so
     /// that the albedo is absolute (interreflection removal depends on it). Default:
     /// with --interreflections, 65535/scale from the dataset's meta.json if it has one;
     /// else 1 (calibrated light_intensities.txt do the same job).
-    #[arg(long, requires = "lambertian", allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true)]
     pub image_scale: Option<f32>,
     /// Integrator: path, fc, fc-reflect, dct, lsq (default: dct on a full rectangle,
     /// lsq with a mask).
@@ -57,7 +61,9 @@ pub struct Args {
 }
 
 /// Run the subcommand.
-pub fn run(args: Args, global: Global) -> Result<()> {
+pub fn run(mut args: Args, global: Global) -> Result<()> {
+    crate::check_output_dir(&args.out)?;
+    args.lambertian |= args.chrome.is_some();
     let inputs = pipeline::Inputs {
         target: args.target.clone(),
         sphere: args.sphere.clone(),
@@ -77,6 +83,8 @@ pub fn run(args: Args, global: Global) -> Result<()> {
         interreflections: args.interreflections,
         ..Default::default()
     };
+    let mut opts = opts;
+    opts.nik.radiosity.block = args.block.unwrap_or(0);
     let done = pipeline::run(&inputs, &args.out, &opts, &Bar::new(global.quiet))?;
     if !global.quiet {
         for (k, v) in &done.output.figures {

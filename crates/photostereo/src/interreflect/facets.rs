@@ -92,6 +92,27 @@ pub fn split_at_crease(px: Vec<u32>, normals: &NormalMap) -> Vec<Vec<u32>> {
     vec![groups.0, groups.1]
 }
 
+/// The smallest facet block ≥ 2 (pixels) whose `block`×`block` grid has at most
+/// `max_cells` cells holding mask pixels (64 when none does). Bounced light is smooth, so
+/// a coarser grid costs little accuracy, while the dense kernel grows as cells².
+/// Crease splitting ([`Facets::build`]) can add facets beyond the cell count.
+pub fn auto_block(mask: &Mask, max_cells: usize) -> usize {
+    let (w, h) = (mask.width, mask.height);
+    let inside = mask.data.iter().filter(|&&m| m).count();
+    // Each cell holds at most b² pixels: no block below √(inside / max_cells) can fit.
+    let start = ((inside as f64 / max_cells.max(1) as f64).sqrt().floor() as usize).max(2);
+    (start..64)
+        .find(|&b| {
+            let gw = w.div_ceil(b);
+            let mut cells = vec![false; gw * h.div_ceil(b)];
+            for (i, _) in mask.data.iter().enumerate().filter(|(_, &m)| m) {
+                cells[(i / w / b) * gw + (i % w) / b] = true;
+            }
+            cells.iter().filter(|&&c| c).count() <= max_cells
+        })
+        .unwrap_or(64)
+}
+
 impl Facets {
     /// Build facets from a depth map, unit normals and a mask of the same size.
     ///

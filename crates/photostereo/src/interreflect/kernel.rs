@@ -70,7 +70,11 @@ impl Kernel {
                     "interreflection kernel of {n} facets (limit {})",
                     opts.max_facets
                 ),
-                "use a larger facet block (e.g. --block 4) or a smaller mask",
+                format!(
+                    "use a larger facet block than {} px (--block {}) or a smaller mask",
+                    facets.block,
+                    facets.block * 2
+                ),
             ));
         }
         if let Visibility::Horizon { azimuths } = opts.visibility {

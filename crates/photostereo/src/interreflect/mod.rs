@@ -27,6 +27,7 @@ pub mod plot;
 pub mod radiosity;
 pub mod scene;
 
+pub use facets::auto_block;
 pub use kernel::{Kernel, KernelOptions};
 pub use nik::{iterate, solve, Convergence, Iterate, NikOptions, NikOutput, Reconstruction};
 pub use plot::{convergence_plot_png, profile_plot_png};
@@ -62,8 +63,11 @@ impl Default for Visibility {
 #[derive(Clone, Copy, Debug)]
 pub struct RadiosityOptions {
     /// Facet size in pixels (1 = one facet per pixel; 2–4 is much faster and still accurate
-    /// because bounced light is smooth).
+    /// because bounced light is smooth). 0 (the default) = automatic: the smallest block ≥ 2
+    /// whose grid has at most `auto_facets` cells inside the mask ([`auto_block`]).
     pub block: usize,
+    /// Cell budget of the automatic block (`block` = 0): 4096 cells make a 64 MiB kernel.
+    pub auto_facets: usize,
     /// Visibility test between facets.
     pub visibility: Visibility,
     /// Height tolerance in pixels before a sample of the height field counts as occluding.
@@ -77,10 +81,23 @@ pub struct RadiosityOptions {
     pub tol: f32,
 }
 
+impl RadiosityOptions {
+    /// The facet block used on `mask`: `block` when set, else [`auto_block`] with
+    /// `auto_facets` cells.
+    pub fn block_for(&self, mask: &crate::image::Mask) -> usize {
+        if self.block > 0 {
+            self.block
+        } else {
+            auto_block(mask, self.auto_facets)
+        }
+    }
+}
+
 impl Default for RadiosityOptions {
     fn default() -> Self {
         RadiosityOptions {
-            block: 2,
+            block: 0,
+            auto_facets: 4096,
             visibility: Visibility::default(),
             vis_eps: 0.05,
             max_facets: 16_384,

@@ -19,6 +19,15 @@
 //! interreflections, where every compensation over-corrects) the run stops at the maximum,
 //! says so in [`Convergence`], and [`NikOutput::best`] points at the iterate with the
 //! smallest fit residual.
+//!
+//! The residual is no check of the image scale: one bounce under a directional light is
+//! linear in the light direction wherever every light sees every facet, so plain
+//! photometric stereo fits it with no residual (a bowl: < 1e-4 at every iterate); only
+//! attached shadows (a groove's walls) make it informative. With images off by a factor f
+//! the iteration removes f times the right bounced light and converges to a wrong depth
+//! (bowl: 0.94 of the truth at f = 0.5, 1.21 at f = 2); see `docs/interreflection-scale.md`
+//! for the table and the evidence for keeping the residual-based choice, and
+//! [`NikOptions::scale_known`].
 
 use super::radiosity::Model;
 use super::RadiosityOptions;
@@ -161,6 +170,10 @@ pub struct NikOutput {
     pub best: usize,
     /// How the iteration ended.
     pub convergence: Convergence,
+    /// Facet block (pixels) of the interreflection model ([`RadiosityOptions::block_for`]).
+    pub block: usize,
+    /// The tolerance of the stopping test ([`NikOptions::tol`]).
+    pub tol: f32,
     /// [`NikOptions::scale_known`]: `false` when nobody said that the images are in
     /// radiance units; the depth then depends on that unknown factor and should be reported
     /// as such.
@@ -173,9 +186,9 @@ impl NikOutput {
         &self.iterations[self.best].shape
     }
 
-    /// One-line summary: converged or not, and which iterate is kept.
+    /// One-line summary: converged or not, which iterate is kept, the facet size.
     pub fn summary(&self) -> String {
-        match &self.convergence {
+        let ending = match &self.convergence {
             Convergence::Converged { at } => format!(
                 "converged after {at} iteration(s) (relative change {:.4})",
                 self.iterations[*at].relative_change
@@ -198,7 +211,8 @@ impl NikOutput {
                     self.best,
                 )
             }
-        }
+        };
+        format!("{ending}; facets of {0}×{0} px", self.block)
     }
 
     /// Convergence table as CSV: iteration, mean change (px), relative change, depth range
@@ -235,9 +249,16 @@ pub fn iterate(
             "use a tolerance ≥ 0 (e.g. 0.01)",
         ));
     }
+    let mut opts = opts.clone();
+    opts.radiosity.block = opts.radiosity.block_for(mask);
+    let opts = &opts;
     progress.start("interreflection iterations", opts.max_iter as u64 + 1);
     let first = reconstruct(raw)?;
     let mut iterations = vec![make_iterate(first, None, mask)];
+    progress.note(&format!(
+        "iteration 0 (raw): depth range {:.3} px, mean albedo {:.4}; facets of {2}×{2} px",
+        iterations[0].depth_range, iterations[0].mean_albedo, opts.radiosity.block
+    ));
     progress.advance(1);
     let mut convergence = None;
     for t in 1..=opts.max_iter {
@@ -246,6 +267,10 @@ pub fn iterate(
         iterations[t - 1].fit_residual = shape.residual;
         let it = make_iterate(shape, Some(&iterations[t - 1].shape.depth), mask);
         let done = it.relative_change < opts.tol;
+        progress.note(&format!(
+            "iteration {t}/{}: depth range {:.3} px, relative change {:.4} (tolerance {}), mean albedo {:.4}",
+            opts.max_iter, it.depth_range, it.relative_change, opts.tol, it.mean_albedo
+        ));
         iterations.push(it);
         progress.advance(1);
         if done {
@@ -274,6 +299,8 @@ pub fn iterate(
         iterations,
         best,
         convergence,
+        block: opts.radiosity.block,
+        tol: opts.tol,
         scale_known: opts.scale_known,
     })
 }

@@ -40,7 +40,8 @@ pub struct Rendered {
 }
 
 impl Model {
-    /// Facets and kernel of the shape given by depth, unit normals and mask.
+    /// Facets and kernel of the shape given by depth, unit normals and mask (facet block
+    /// from [`RadiosityOptions::block_for`]).
     pub fn new(
         depth: &DepthMap,
         normals: &NormalMap,
@@ -48,7 +49,7 @@ impl Model {
         opts: &RadiosityOptions,
         progress: &dyn Progress,
     ) -> Result<Self> {
-        let facets = Facets::build(depth, normals, mask, opts.block)?;
+        let facets = Facets::build(depth, normals, mask, opts.block_for(mask))?;
         let kopts = KernelOptions {
             visibility: opts.visibility,
             vis_eps: opts.vis_eps,

@@ -2,7 +2,7 @@
 //! [module docs](super) for the files and the rules).
 
 use super::raster::{decode_gray, read_mask_any, save_png, write_mask_png, Decoded, LUMA};
-use super::{read_file, write_text};
+use super::{read_text, write_text};
 use crate::error::{Error, Result};
 use crate::image::{normalize, ImageStack, Lights, Mask};
 use rayon::prelude::*;
@@ -317,14 +317,6 @@ fn trim_zeros(d: &[u8]) -> &[u8] {
     &d[z..]
 }
 
-fn read_text(path: &Path) -> Result<String> {
-    let bytes = read_file(path, "check the dataset directory")?;
-    String::from_utf8(bytes).map_err(|_| Error::Decode {
-        path: path.to_path_buf(),
-        message: "not a UTF-8 text file".into(),
-    })
-}
-
 /// Parse the numeric lines of a text table (blank lines and `#` comments skipped;
 /// numbers separated by spaces, tabs or commas). Returns (line number, values).
 fn parse_rows(path: &Path) -> Result<Vec<(usize, Vec<f32>)>> {
@@ -455,7 +447,7 @@ pub fn write_dataset(
     if let Some(m) = mask {
         m.check_size(stack.width, stack.height, "mask of the dataset")?;
     }
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    super::create_dir_all(dir)?;
     let digits = stack.k.to_string().len().max(3);
     let names: Vec<String> = (1..=stack.k).map(|i| format!("{i:0digits$}.png")).collect();
     (0..stack.k)

@@ -36,6 +36,7 @@
 //! was written, so a failed or interrupted run never leaves a half-written file.
 
 pub mod dataset;
+pub mod limits;
 pub mod npy;
 pub mod raster;
 pub mod run;
@@ -74,7 +75,13 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
             "give the path of a file to write",
         ));
     };
-    fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    if path.is_dir() {
+        return Err(Error::invalid(
+            format!("{}: is a directory", path.display()),
+            "give the path of a file to write (a new name, or a file to replace)",
+        ));
+    }
+    create_dir_all(&dir)?;
     let tmp = temp_path(&dir, &name.to_string_lossy());
     let result = write_temp(&tmp, fill)
         .and_then(|()| fs::rename(&tmp, path).map_err(|e| Error::io(path, e)));
@@ -83,6 +90,18 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
         let _ = fs::remove_file(&tmp);
     }
     result
+}
+
+/// The error of creating the directory `dir`: when a part of it is an existing file,
+/// say so, naming that file.
+fn dir_error(dir: &Path, e: std::io::Error) -> Error {
+    match dir.ancestors().find(|a| a.is_file()) {
+        Some(file) => Error::invalid(
+            format!("{}: is a file, not a directory", file.display()),
+            "give an output path that is a directory or does not exist yet",
+        ),
+        None => Error::io(dir, e),
+    }
 }
 
 /// A fresh, unused temporary name in `dir` for a file that will become `name`.
@@ -116,9 +135,27 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomic(path, |w| w.write_all(bytes).map_err(|e| Error::io(path, e)))
 }
 
-/// Read a whole file, with [`Error::NotFound`] naming it when it does not exist.
+/// Read a UTF-8 text file of at most [`limits::MAX_TEXT_BYTES`] (light directions,
+/// intensities, file lists, JSON side files), with [`Error::NotFound`] naming it when
+/// it does not exist.
+pub fn read_text(path: &Path) -> Result<String> {
+    let bytes = limits::read_bounded(path, limits::MAX_TEXT_BYTES, "check the path")?;
+    String::from_utf8(bytes).map_err(|_| Error::Decode {
+        path: path.to_path_buf(),
+        message: "not a UTF-8 text file".into(),
+    })
+}
+
+/// Read a whole file of at most [`limits::MAX_FILE_BYTES`], with [`Error::NotFound`]
+/// naming it when it does not exist.
 pub(crate) fn read_file(path: &Path, fix: &str) -> Result<Vec<u8>> {
-    fs::read(path).map_err(|e| not_found_or_io(path, e, fix))
+    limits::read_bounded(path, limits::MAX_FILE_BYTES, fix)
+}
+
+/// Create a directory and its parents; when a part of the path is an existing file, the
+/// error says so, naming that file.
+pub fn create_dir_all(dir: &Path) -> Result<()> {
+    fs::create_dir_all(dir).map_err(|e| dir_error(dir, e))
 }
 
 /// Map an I/O error to [`Error::NotFound`] (with `fix`) or [`Error::Io`].

@@ -5,6 +5,7 @@
 //! float64 (masks: bool, uint8, int64, float32, float64; non-zero and not NaN = inside),
 //! in C or Fortran order.
 
+use super::limits;
 use super::{read_file, write_atomic};
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, Mask, NormalMap};
@@ -14,9 +15,148 @@ use std::path::Path;
 
 const FIX: &str = "give the path of an existing .npy file";
 
+/// Read an `.npy` file whole, after checking that its header is sound and that the
+/// file holds exactly the data the header claims (see [`limits`]): `ndarray-npy`
+/// allocates what the shape claims before reading, so a lying header must not reach it.
+fn read_checked(path: &Path) -> Result<Vec<u8>> {
+    let bytes = read_file(path, FIX)?;
+    check_npy(&bytes).map_err(|message| Error::Decode {
+        path: path.to_path_buf(),
+        message,
+    })?;
+    Ok(bytes)
+}
+
+/// What an `.npy` header claims: the element size (bytes) and the shape.
+#[derive(Debug, PartialEq)]
+struct Claim {
+    item: u64,
+    shape: Vec<u64>,
+}
+
+/// Check the header of an `.npy` file against its length and the limits.
+fn check_npy(bytes: &[u8]) -> std::result::Result<(), String> {
+    let (claim, data_start) = parse_header(bytes)?;
+    let mut count: u64 = 1;
+    for &d in &claim.shape {
+        count = count
+            .checked_mul(d)
+            .ok_or_else(|| format!("the header claims shape {:?}: too large", claim.shape))?;
+    }
+    let claimed = count
+        .checked_mul(claim.item)
+        .ok_or_else(|| format!("the header claims shape {:?}: too large", claim.shape))?;
+    let held = (bytes.len() - data_start) as u64;
+    if claimed != held {
+        return Err(format!(
+            "the header claims shape {:?} of {}-byte elements ({claimed} bytes of data), \
+             the file holds {held} bytes (truncated or damaged file)",
+            claim.shape, claim.item
+        ));
+    }
+    if let [h, w, ..] = claim.shape[..] {
+        if h > limits::MAX_SIDE || w > limits::MAX_SIDE || h.saturating_mul(w) > limits::MAX_PIXELS
+        {
+            return Err(format!(
+                "shape {:?}: over the limit of {} per side and {} pixels",
+                claim.shape,
+                limits::MAX_SIDE,
+                limits::MAX_PIXELS
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Parse the magic, version, header length and the `descr` and `shape` entries of the
+/// header dictionary; returns the claim and where the data starts.
+fn parse_header(bytes: &[u8]) -> std::result::Result<(Claim, usize), String> {
+    const MAGIC: &[u8] = b"\x93NUMPY";
+    if bytes.len() < 10 || &bytes[..6] != MAGIC {
+        return Err("not a .npy file (no \\x93NUMPY signature)".into());
+    }
+    let (len, start) = match bytes[6] {
+        1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as u64, 10),
+        2 | 3 if bytes.len() >= 12 => (
+            u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as u64,
+            12,
+        ),
+        v => {
+            return Err(format!(
+                ".npy format version {v} (this program reads 1 to 3)"
+            ))
+        }
+    };
+    if len > limits::MAX_NPY_HEADER || start as u64 + len > bytes.len() as u64 {
+        return Err(format!(
+            "the header claims {len} bytes, the file holds {} (truncated or damaged file)",
+            bytes.len() - start
+        ));
+    }
+    let end = start + len as usize;
+    let text = std::str::from_utf8(&bytes[start..end])
+        .map_err(|_| "the header is not text (damaged file)".to_string())?;
+    let claim = Claim {
+        item: item_size(text)?,
+        shape: shape(text)?,
+    };
+    Ok((claim, end))
+}
+
+/// The text after `'key':` in a header dictionary.
+fn entry<'a>(text: &'a str, key: &str) -> std::result::Result<&'a str, String> {
+    let quoted = [format!("'{key}'"), format!("\"{key}\"")];
+    let at = quoted
+        .iter()
+        .find_map(|q| text.find(q.as_str()).map(|i| i + q.len()))
+        .ok_or_else(|| format!("the header has no '{key}' entry"))?;
+    let rest = text[at..].trim_start();
+    rest.strip_prefix(':')
+        .map(str::trim_start)
+        .ok_or_else(|| format!("the header's '{key}' entry is malformed"))
+}
+
+/// Element size from `descr` (`'<f4'`, `'|b1'`, ...); structured types are refused.
+fn item_size(text: &str) -> std::result::Result<u64, String> {
+    let d = entry(text, "descr")?;
+    let q = d.chars().next().filter(|c| *c == '\'' || *c == '"');
+    let bad = || {
+        format!(
+            "unsupported element type {}",
+            d.split(',').next().unwrap_or(d)
+        )
+    };
+    let q = q.ok_or_else(bad)?;
+    let inner = d[1..].split(q).next().ok_or_else(bad)?;
+    let digits = inner.trim_start_matches(['<', '>', '|', '=']);
+    let size = digits.get(1..).and_then(|n| n.parse::<u64>().ok());
+    match size {
+        Some(s) if (1..=16).contains(&s) => Ok(s),
+        _ => Err(bad()),
+    }
+}
+
+/// The `shape` tuple.
+fn shape(text: &str) -> std::result::Result<Vec<u64>, String> {
+    let s = entry(text, "shape")?;
+    let body = s
+        .strip_prefix('(')
+        .and_then(|r| r.split(')').next())
+        .ok_or_else(|| "the header's shape is not a tuple".to_string())?;
+    body.split(',')
+        .map(str::trim)
+        .filter(|t| !t.is_empty())
+        .map(|t| {
+            t.trim_end_matches('L')
+                .parse::<u64>()
+                .map_err(|_| format!("the header's shape ({body}) is not a tuple of sizes"))
+        })
+        .collect()
+}
+
 /// Read an n-dimensional array of `f32`, accepting float32 or float64 files.
 fn read_f32_array(path: &Path) -> Result<ArrayD<f32>> {
-    let bytes = read_file(path, FIX)?;
+    let bytes = read_checked(path)?;
     if let Ok(a) = ArrayD::<f32>::read_npy(&bytes[..]) {
         return Ok(a);
     }
@@ -73,7 +213,7 @@ pub fn read_gray_npy(path: &Path) -> Result<GrayImage> {
 /// Read a mask stored as an (H, W) array of bool, uint8, int64, float32 or float64;
 /// non-zero (and not NaN) = inside.
 pub fn read_mask_npy(path: &Path) -> Result<Mask> {
-    let bytes = read_file(path, FIX)?;
+    let bytes = read_checked(path)?;
     fn try_read<T: ReadableElement + Clone>(
         bytes: &[u8],
         inside: impl Fn(&T) -> bool,

@@ -8,7 +8,7 @@
 //!   c = (n + 1)/2, gray images as auto-scaled 16-bit, masks as 8-bit 0/255, and
 //!   false-colour 8-bit RGB pictures (turbo colour map) of depth or error maps.
 
-use super::{encode_error, not_found_or_io, write_atomic};
+use super::{encode_error, limits, not_found_or_io, write_atomic};
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, Mask, NormalMap};
 use image::codecs::png::PngEncoder;
@@ -36,13 +36,30 @@ pub fn read_gray_image(path: &Path, channel_scale: Option<[f32; 3]>) -> Result<(
     Ok((d.image, d.bit_depth))
 }
 
-fn open_image(path: &Path) -> Result<DynamicImage> {
+/// An image reader for `path` with its format guessed and the [`limits`] set.
+fn reader(path: &Path) -> Result<ImageReader<std::io::BufReader<std::fs::File>>> {
     let fix = "check the path; images must be PNG or TIFF files";
-    let reader = ImageReader::open(path)
+    let mut reader = ImageReader::open(path)
         .map_err(|e| not_found_or_io(path, e, fix))?
         .with_guessed_format()
         .map_err(|e| Error::io(path, e))?;
-    reader.decode().map_err(|e| Error::Decode {
+    reader.limits(limits::image_limits());
+    Ok(reader)
+}
+
+/// Decode an image after checking the size its header claims against the [`limits`]
+/// (the header alone is read first, so a lying header costs no allocation).
+fn open_image(path: &Path) -> Result<DynamicImage> {
+    let mut probe = reader(path)?;
+    // No size limit on the probe, so that the size it reads is reported in our words.
+    let mut lenient = limits::image_limits();
+    (lenient.max_image_width, lenient.max_image_height) = (None, None);
+    probe.limits(lenient);
+    // An unreadable header is reported by `decode` below, with the decoder's words.
+    if let Ok((w, h)) = probe.into_dimensions() {
+        limits::check_dimensions(path, w as u64, h as u64)?;
+    }
+    reader(path)?.decode().map_err(|e| Error::Decode {
         path: path.to_path_buf(),
         message: format!("{e} (expected an 8/16-bit gray or RGB PNG or TIFF image)"),
     })
@@ -76,6 +93,17 @@ pub(crate) fn decode_gray(path: &Path, channel_scale: Option<[f32; 3]>) -> Resul
             })
         }
     };
+    if let Some(i) = data.iter().position(|v| !v.is_finite()) {
+        return Err(Error::Decode {
+            path: path.to_path_buf(),
+            message: format!(
+                "pixel (x {}, y {}) is {} (float images must hold finite values)",
+                i % w.max(1),
+                i / w.max(1),
+                data[i]
+            ),
+        });
+    }
     Ok(Decoded {
         image: Image::from_vec(w, h, data)?,
         bit_depth,

@@ -168,7 +168,7 @@ mod lanes {
         /// The 4 values at `s[at..at + 4]`.
         #[inline(always)]
         pub fn load(s: &[f32], at: usize) -> V {
-            V(s[at..at + 4].try_into().expect("4 lanes"))
+            V([s[at], s[at + 1], s[at + 2], s[at + 3]])
         }
         #[inline(always)]
         pub fn store(self, s: &mut [f32], at: usize) {

@@ -40,6 +40,75 @@ pub fn masked_mean(img: &GrayImage, mask: &Mask) -> f32 {
     }
 }
 
+/// What the pictures `albedo.png` and `depth.png` (and the report's) show: the albedo's
+/// white level and the depth's colour range ([`crate::report::raster::albedo_picture`],
+/// [`crate::report::raster::depth_picture`]).
+pub(super) fn picture_rows(
+    job: &Job,
+    albedo: Option<&GrayImage>,
+    depth: &DepthMap,
+) -> Vec<(String, String)> {
+    use crate::report::raster;
+    let mask = Some(&job.mask);
+    let mut f = Vec::new();
+    if let Some(a) = albedo {
+        let white = raster::albedo_white(a, mask);
+        f.push((
+            "albedo.png white level".into(),
+            format!("{white:.3} (99th percentile; black = 0)"),
+        ));
+    }
+    let (_, (lo, hi)) = raster::depth_picture(depth, mask);
+    f.push((
+        "depth.png colour range (px)".into(),
+        format!("{lo:.2} far, dark → {hi:.2} near, yellow (viridis, 1st → 99th percentile)"),
+    ));
+    f
+}
+
+/// Confidence below which a lookup is not to be trusted ([`crate::lut`]: 1 = perfect match).
+pub const LOW_CONFIDENCE: f32 = 0.5;
+
+/// The warnings of a job: a lookup whose confidence is below [`LOW_CONFIDENCE`] over most
+/// of the mask (the sphere's intensities do not cover the target's), and interreflection
+/// removal on images whose radiance scale nobody gave.
+pub fn warnings(job: &Job, confidence: Option<&GrayImage>, opts: &super::Options) -> Vec<String> {
+    let mut w = Vec::new();
+    if let Some(c) = confidence {
+        let inside: Vec<f32> = c
+            .data
+            .iter()
+            .zip(&job.mask.data)
+            .filter(|(_, &m)| m)
+            .map(|(v, _)| if v.is_finite() { *v } else { 0.0 })
+            .collect();
+        let low = inside.iter().filter(|&&v| v < LOW_CONFIDENCE).count();
+        if !inside.is_empty() && 2 * low > inside.len() {
+            w.push(format!(
+                "low confidence: {:.0}% of the mask has a lookup confidence below {LOW_CONFIDENCE} \
+                 (mean {:.3}). The sphere's intensities do not cover the target's: the sphere is \
+                 probably not of the target's material, or not under the same lights, or the \
+                 exposures differ. These normals and this depth are not to be trusted; use a \
+                 sphere of the same material under the same lights (or --lambertian for a matte \
+                 object).",
+                100.0 * low as f64 / inside.len() as f64,
+                inside.iter().map(|&v| f64::from(v)).sum::<f64>() / inside.len() as f64
+            ));
+        }
+    }
+    if opts.interreflections && !opts.nik.scale_known {
+        w.push(
+            "image scale unknown: interreflection removal needs images in radiance units (the \
+             bounced light is proportional to the absolute albedo, which photometric stereo \
+             knows only up to the camera's gain). Nothing said so here (no --image-scale, no \
+             meta.json scale): with 8-bit photographs the depth of a concavity may be off by \
+             several percent. Give --image-scale F or calibrated light_intensities.txt."
+                .to_string(),
+        );
+    }
+    w
+}
+
 /// The circle figure: "cx, cy, r ± uncertainty (…; fit rms … px)".
 pub(super) fn circle(det: &sphere::Detection) -> String {
     let c = det.circle;
@@ -93,7 +162,7 @@ pub(super) fn summary(
     if let Some(ir) = ir {
         f.push(("interreflections".into(), ir.summary.clone()));
         f.push((
-            "concavity depth before → after (px)".into(),
+            "depth range before → after interreflection removal (px)".into(),
             format!("{:.2} → {:.2}", ir.depth_before, ir.depth_after),
         ));
         f.push((
@@ -153,6 +222,7 @@ pub fn run_json(title: &str, p: &Output, stages: &[(String, f64)]) -> Value {
     if let Some((st, _)) = &p.accuracy.depth {
         v["depth_error_px"] = json!({"rmse": st.rmse, "range": st.range, "offset": st.offset});
     }
+    v["warnings"] = json!(p.warnings);
     if let Some(ir) = &p.interreflections {
         v["interreflections"] = json!({
             "depth_before_px": ir.depth_before,

@@ -51,6 +51,10 @@ pub struct Loaded {
     /// interreflection removal; [`scale_is_known`]); [`run`] passes it on as
     /// [`crate::interreflect::NikOptions::scale_known`].
     pub scale_known: bool,
+    /// The factor the images were multiplied by and where it came from (Lambertian).
+    pub image_scale: Option<(f32, &'static str)>,
+    /// The chrome sphere the lights came from.
+    pub chrome: Option<sphere::Detection>,
 }
 
 /// A finished run.
@@ -74,28 +78,50 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         ..Default::default()
     };
     let mut target = io::load_dataset(&inputs.target, &load_opts)?;
+    let scale_known = inputs.lambertian
+        && scale_is_known(&inputs.target, inputs.image_scale, opts.interreflections)?;
+    let mut image_scale = None;
     if inputs.lambertian {
         let scale = radiance_scale(&inputs.target, inputs.image_scale, opts.interreflections)?;
         target.stack.data.iter_mut().for_each(|v| *v *= scale);
+        let from = match (inputs.image_scale.is_some(), scale_known) {
+            (true, _) => "given (--image-scale)",
+            (false, true) => "from meta.json (65535 / scale)",
+            (false, false) => "not given: images taken as radiance units",
+        };
+        image_scale = Some((scale, from));
     }
-    let scale_known = inputs.lambertian
-        && scale_is_known(&inputs.target, inputs.image_scale, opts.interreflections)?;
     let mut stages = vec![("load".to_string(), t0.elapsed().as_secs_f64())];
     let mask = target
         .mask
         .clone()
         .unwrap_or_else(|| Mask::full(target.stack.width, target.stack.height));
+    let mut chrome = None;
     let normals = if let Some(cal) = &inputs.calibration {
         Normals::Calibrated(Box::new(cal.clone()))
     } else if let Some(dir) = &inputs.sphere {
         let sphere = io::load_dataset(dir, &io::LoadOptions::default())?;
+        if sphere.stack.k != target.stack.k {
+            return Err(Error::invalid(
+                format!(
+                    "the sphere {} has {} images, the target {} has {}",
+                    dir.display(),
+                    sphere.stack.k,
+                    inputs.target.display(),
+                    target.stack.k
+                ),
+                "image the sphere under the same lights as the target: one image per light, in \
+                 the same order (filenames.txt sets the order)",
+            ));
+        }
         Normals::Lookup {
             sphere: sphere.stack,
             sphere_mask: sphere.mask,
         }
     } else {
         let t = Instant::now();
-        let lights = lights(inputs, target.lights.clone(), progress)?;
+        let (lights, det) = lights(inputs, target.lights.clone(), target.stack.k, progress)?;
+        chrome = det;
         stages.push(("lights".to_string(), t.elapsed().as_secs_f64()));
         Normals::Lambertian { lights }
     };
@@ -118,6 +144,8 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         titles,
         stages,
         scale_known,
+        image_scale,
+        chrome,
     })
 }
 
@@ -126,7 +154,13 @@ pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress)
     let loaded = load(inputs, opts, progress)?;
     let mut opts = opts.clone();
     opts.nik.scale_known |= loaded.scale_known;
-    let output = super::solve(&loaded.job, &opts, progress)?;
+    let mut output = super::solve(&loaded.job, &opts, progress)?;
+    if let Some((scale, from)) = loaded.image_scale {
+        output
+            .figures
+            .push(("image scale (images ×)".into(), format!("{scale} ({from})")));
+    }
+    output.chrome = loaded.chrome.clone();
     let report = super::write_outputs(out, &loaded.titles, &loaded.job, &output, &loaded.stages)?;
     let mut stages = loaded.stages.clone();
     stages.extend(output.stages.iter().cloned());
@@ -188,24 +222,46 @@ pub fn scale_is_known(dir: &Path, given: Option<f32>, use_meta: bool) -> Result<
     Ok(given.is_some() || (use_meta && io::read_meta_scale(dir)?.is_some()))
 }
 
-/// Light directions: the `lights` file, the `chrome` calibration, or the dataset's own.
+/// Light directions for `k` images: the `lights` file, the `chrome` calibration (with the
+/// sphere's detection), or the dataset's own.
 fn lights(
     inputs: &Inputs,
     from_dataset: Option<Lights>,
+    k: usize,
     progress: &dyn Progress,
-) -> Result<Lights> {
+) -> Result<(Lights, Option<sphere::Detection>)> {
     if let Some(file) = &inputs.lights {
-        return io::read_lights(file);
+        if !file.is_file() {
+            return Err(Error::invalid(
+                format!("--lights {}: no such file", file.display()),
+                format!(
+                    "give a text file of {k} lines `x y z` (one light direction per image, in \
+                     image order), or leave --lights out to use the dataset's light_directions.txt"
+                ),
+            ));
+        }
+        let lights = io::read_lights(file)?;
+        if lights.len() != k {
+            return Err(Error::invalid(
+                format!(
+                    "--lights {}: {} directions for {k} images",
+                    file.display(),
+                    lights.len()
+                ),
+                "give one `x y z` line per image",
+            ));
+        }
+        return Ok((lights, None));
     }
     if let Some(dir) = &inputs.chrome {
-        let lights = chrome_lights(dir)?;
+        let (lights, det) = chrome_lights(dir)?;
         progress.note(&format!(
             "lights calibrated from the chrome sphere {}",
             dir.display()
         ));
-        return Ok(lights);
+        return Ok((lights, Some(det)));
     }
-    from_dataset.ok_or_else(|| {
+    from_dataset.map(|l| (l, None)).ok_or_else(|| {
         Error::invalid(
             format!("{}: no light_directions.txt", inputs.target.display()),
             "give --lights FILE or --chrome CHROME_DIR",
@@ -213,8 +269,8 @@ fn lights(
     })
 }
 
-/// Lights from the highlights of a chrome sphere dataset.
-fn chrome_lights(dir: &Path) -> Result<Lights> {
+/// Lights from the highlights of a chrome sphere dataset, and the sphere's detection.
+fn chrome_lights(dir: &Path) -> Result<(Lights, sphere::Detection)> {
     let chrome = io::load_dataset(dir, &io::LoadOptions::default())?;
     let det = sphere::detect(
         &chrome.stack,
@@ -229,7 +285,7 @@ fn chrome_lights(dir: &Path) -> Result<Lights> {
     .map_err(|e| e.context(format!("finding the chrome sphere in {}", dir.display())))?;
     let (lights, _) = lightcal::from_chrome_sphere(&chrome.stack, &det.circle, &Default::default())
         .map_err(|e| e.context(format!("calibrating the lights from {}", dir.display())))?;
-    Ok(lights)
+    Ok((lights, det))
 }
 
 fn subtitle(inputs: &Inputs, opts: &Options) -> String {

@@ -39,7 +39,7 @@ use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::Progress;
 use crate::{eval, integrate, interreflect, lambertian, lut, mesh, sphere};
 
-pub use figures::{depth_range, masked_mean, run_json};
+pub use figures::{depth_range, masked_mean, run_json, warnings, LOW_CONFIDENCE};
 pub use load::{load, radiance_scale, run, scale_is_known, Inputs, Loaded, Run};
 pub use outputs::{build_report, write_outputs, Titles};
 
@@ -184,6 +184,12 @@ pub struct Output {
     pub stages: Vec<(String, f64)>,
     /// (figure, value) rows for the report and `run.json`, in order.
     pub figures: Vec<(String, String)>,
+    /// How far not to trust the result, and why: shown at the top of the report, in
+    /// `run.json` and (through [`Progress::note`]) on the terminal ([`warnings`]).
+    pub warnings: Vec<String>,
+    /// The chrome sphere the lights were calibrated from (its circle for the report and
+    /// `chrome_overlay.png`), when [`run`] did that.
+    pub chrome: Option<sphere::Detection>,
 }
 
 /// Run the job in memory; `progress` gets the stage lines and the progress of long stages.
@@ -226,6 +232,11 @@ pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Outpu
     figures.extend(figures::summary(
         job, &est, &depth, &mesh, method, &accuracy, &ir,
     ));
+    figures.extend(figures::picture_rows(job, est.albedo.as_ref(), &depth));
+    let warnings = figures::warnings(job, est.confidence.as_ref(), opts);
+    for w in &warnings {
+        progress.note(&format!("warning: {w}"));
+    }
     Ok(Output {
         normals: est.normals,
         albedo: est.albedo,
@@ -238,6 +249,8 @@ pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Outpu
         accuracy,
         stages: st.list,
         figures,
+        warnings,
+        chrome: None,
     })
 }
 

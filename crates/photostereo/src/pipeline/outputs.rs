@@ -4,9 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use super::figures::run_json;
-use super::{Job, Output};
+use super::{Job, Normals, Output};
 use crate::error::Result;
-use crate::report::{raster::ColorMap, Report, Section};
+use crate::report::{raster, raster::ColorMap, Report, Section};
 use crate::{io, mesh, sphere};
 
 /// The title (the dataset's name) and subtitle (how it was solved) of a report.
@@ -20,8 +20,10 @@ pub struct Titles {
 
 /// Write every product of `p` into the directory `out` (created): `normals.npy/png`,
 /// `albedo.npy/png`, `confidence.npy/png`, `depth.npy/png`, `mesh.ply`,
-/// `sphere_overlay.png`, `convergence.csv` and plots (those the run has), `report.html`
-/// and `run.json`. `extra_stages` (e.g. loading) come before the pipeline's own stages
+/// `sphere_overlay.png`, `lights.txt` (Lambertian), `chrome_overlay.png` (lights from a
+/// chrome sphere), `convergence.csv` and plots (those the run has), `report.html` and
+/// `run.json`. `albedo.png` and `depth.png` are the report's pictures
+/// ([`raster::albedo_picture`], [`raster::depth_picture`]; their ranges are figure rows). `extra_stages` (e.g. loading) come before the pipeline's own stages
 /// in the timings. Returns the path of the report.
 pub fn write_outputs(
     out: &Path,
@@ -49,14 +51,22 @@ fn write_maps(out: &Path, job: &Job, p: &Output) -> Result<()> {
     io::write_normals_png(&out.join("normals.png"), &p.normals, Some(mask))?;
     if let Some(a) = &p.albedo {
         io::write_gray_npy(&out.join("albedo.npy"), a)?;
-        io::write_gray_png(&out.join("albedo.png"), a)?;
+        let (rgb, _) = raster::albedo_picture(a, Some(mask));
+        io::write_bytes(&out.join("albedo.png"), &raster::encode_png(&rgb)?)?;
     }
     if let Some(c) = &p.confidence {
         io::write_gray_npy(&out.join("confidence.npy"), c)?;
         io::write_gray_png(&out.join("confidence.png"), c)?;
     }
     io::write_gray_npy(&out.join("depth.npy"), &p.depth)?;
-    io::write_depth_png(&out.join("depth.png"), &p.depth, Some(mask))?;
+    let (rgb, _) = raster::depth_picture(&p.depth, Some(mask));
+    io::write_bytes(&out.join("depth.png"), &raster::encode_png(&rgb)?)?;
+    if let Normals::Lambertian { lights } = &job.normals {
+        io::write_light_directions(&out.join("lights.txt"), lights)?;
+    }
+    if let Some(det) = &p.chrome {
+        io::write_bytes(&out.join("chrome_overlay.png"), &overlay_png(det)?)?;
+    }
     io::write_atomic(&out.join("mesh.ply"), |w| {
         mesh::write_ply_binary(&p.mesh, &mut *w)
     })?;
@@ -87,6 +97,9 @@ pub fn build_report(
     let mask = Some(&job.mask);
     let mut r = Report::new(&titles.title);
     r.subtitle(&titles.subtitle);
+    for w in &p.warnings {
+        r.warning(w);
+    }
     r.inputs(&job.target);
     r.surface(&p.depth, p.albedo.as_ref())?;
     r.normals(&p.normals, mask)?;
@@ -101,6 +114,16 @@ pub fn build_report(
         r.png(
             Section::Maps,
             "calibration sphere: circle found",
+            overlay_png(det)?,
+        )?;
+    }
+    if let Normals::Lambertian { lights } = &job.normals {
+        r.lights("light directions seen from the camera (lights.txt)", lights);
+    }
+    if let Some(det) = &p.chrome {
+        r.png(
+            Section::Lights,
+            "chrome sphere: circle found (chrome_overlay.png)",
             overlay_png(det)?,
         )?;
     }

@@ -29,6 +29,9 @@ figcaption{font-size:12px;color:#444}
 .legend img{height:10px;width:160px;border:0}
 table{border-collapse:collapse}td{padding:3px 12px 3px 0;border-bottom:1px solid #ddd}
 td:first-child{color:#555}#ps-errors{color:#b00}
+.tools button{margin-right:4px}svg.polar{border:1px solid #ccc}
+#ps-warnings{margin:14px 0 0;padding:10px 14px;background:#fff3cd;border:2px solid #d9a400;color:#5c4300}
+#ps-warnings p{margin:4px 0}#ps-warnings b{color:#8a3b00}
 "#;
 
 /// Installed first: counts script errors into `<html data-errors>` and `#ps-errors`.
@@ -96,12 +99,14 @@ pub(crate) fn page(r: &Report) -> Result<String> {
         esc(&r.subtitle)
     );
     s.push_str("<pre id=\"ps-errors\"></pre>\n");
+    warnings_section(&mut s, r);
     viewer_section(&mut s, r);
     inputs_section(&mut s, r)?;
     for (section, title) in [
         (Section::Maps, "Maps"),
         (Section::Errors, "Errors against ground truth"),
         (Section::Interreflections, "Interreflection removal"),
+        (Section::Lights, "Lights"),
     ] {
         figures_section(&mut s, r, section, title)?;
     }
@@ -122,12 +127,26 @@ pub(crate) fn page(r: &Report) -> Result<String> {
     Ok(s)
 }
 
+/// Warnings first, in a box no reader can miss.
+fn warnings_section(s: &mut String, r: &Report) {
+    if r.warnings.is_empty() {
+        return;
+    }
+    s.push_str("<div id=\"ps-warnings\" role=\"alert\">");
+    for w in &r.warnings {
+        let _ = write!(s, "<p><b>Warning:</b> {}</p>", esc(w));
+    }
+    s.push_str("</div>\n");
+}
+
 fn viewer_section(s: &mut String, r: &Report) {
     let Some(mesh) = &r.mesh else { return };
     s.push_str("<h2>3-D view</h2>\n<div id=\"ps-viewer\"></div>\n");
     let _ = writeln!(
         s,
         "<div class=\"tools\"><button id=\"ps-reset\">reset view</button>\
+         <button id=\"ps-front\">front</button><button id=\"ps-side\">side</button>\
+         <button id=\"ps-top\">top</button> \
          <label><input type=\"checkbox\" id=\"ps-albedo\" checked> albedo colours</label> \
          &nbsp; drag: rotate · wheel: zoom · right-drag: pan · {} triangles{}</div>",
         mesh.triangles(),
@@ -167,14 +186,18 @@ fn figures_section(s: &mut String, r: &Report, section: Section, title: &str) ->
     }
     let _ = writeln!(s, "<h2>{}</h2>\n<div class=\"grid\">", esc(title));
     for f in figs {
+        let c = esc(&f.caption);
         let (uri, class) = match &f.picture {
             Picture::Raster(rgb) => (rgb_uri(rgb)?, "map"),
             Picture::Png(bytes) => (data_uri(bytes), "plot"),
+            Picture::Svg(svg) => {
+                let _ = writeln!(s, "<figure>{svg}<figcaption>{c}</figcaption></figure>");
+                continue;
+            }
         };
         let _ = write!(
             s,
-            "<figure><img class=\"{class}\" src=\"{uri}\" alt=\"{c}\"><figcaption>{c}</figcaption>",
-            c = esc(&f.caption)
+            "<figure><img class=\"{class}\" src=\"{uri}\" alt=\"{c}\"><figcaption>{c}</figcaption>"
         );
         if let Some(legend) = &f.legend {
             legend_html(s, legend)?;

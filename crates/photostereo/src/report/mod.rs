@@ -25,6 +25,7 @@
 //! ```
 
 mod html;
+mod polar;
 pub mod raster;
 pub mod viewer;
 
@@ -47,6 +48,8 @@ pub enum Section {
     Errors,
     /// Interreflection removal: convergence plot, profiles.
     Interreflections,
+    /// Light calibration: the lights' directions, the sphere's circle.
+    Lights,
 }
 
 /// A legend under a colour-mapped picture: the colour bar and the values at its ends.
@@ -62,6 +65,8 @@ struct Legend {
 enum Picture {
     Raster(Rgb),
     Png(Vec<u8>),
+    /// Inline SVG markup made by this module.
+    Svg(String),
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -80,6 +85,7 @@ pub struct Report {
     inputs: Vec<(String, Rgb)>,
     figures: Vec<Figure>,
     table: Vec<(String, String)>,
+    warnings: Vec<String>,
     mesh: Option<ViewerMesh>,
 }
 
@@ -150,11 +156,10 @@ impl Report {
         Ok(self)
     }
 
-    /// The albedo in grey (black = 0, white = its 99th percentile).
+    /// The albedo in grey (black = 0, white = its 99th percentile: [`raster::albedo_picture`]).
     pub fn albedo(&mut self, albedo: &GrayImage, mask: Option<&Mask>) -> Result<&mut Self> {
         check_mask(mask, albedo.width, albedo.height, "mask of the albedo")?;
-        let hi = raster::robust_range(albedo, mask).1.max(1e-6);
-        let rgb = raster::scalar_rgb(albedo, mask, 0.0, hi, ColorMap::Gray);
+        let (rgb, hi) = raster::albedo_picture(albedo, mask);
         self.push(
             Section::Maps,
             &format!("albedo (white = {hi:.3})"),
@@ -164,10 +169,10 @@ impl Report {
         Ok(self)
     }
 
-    /// Depth in false colour (viridis, far → near), NaN outside the mask.
+    /// Depth in false colour (viridis, far → near: [`raster::depth_picture`]), NaN outside
+    /// the mask.
     pub fn depth(&mut self, depth: &DepthMap) -> &mut Self {
-        let (lo, hi) = raster::robust_range(depth, None);
-        let rgb = raster::scalar_rgb(depth, None, lo, hi, ColorMap::Viridis);
+        let (rgb, (lo, hi)) = raster::depth_picture(depth, None);
         let legend = Legend {
             cmap: ColorMap::Viridis,
             lo: format!("{lo:.1} px (far)"),
@@ -213,6 +218,30 @@ impl Report {
             legend: None,
         });
         Ok(self)
+    }
+
+    /// A warning shown in a box at the top of the page (how far to trust the result, and why).
+    pub fn warning(&mut self, text: impl Into<String>) -> &mut Self {
+        self.warnings.push(text.into());
+        self
+    }
+
+    /// The warnings given so far.
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// The light directions as a polar plot seen from the camera: angle from the view axis
+    /// outward (rings at 30°, 60°, 90°), azimuth around (x right, y up); one numbered dot per
+    /// light, in image order.
+    pub fn lights(&mut self, caption: &str, lights: &crate::image::Lights) -> &mut Self {
+        self.figures.push(Figure {
+            section: Section::Lights,
+            caption: caption.into(),
+            picture: Picture::Svg(polar::lights_svg(&lights.directions)),
+            legend: None,
+        });
+        self
     }
 
     /// One row of the table of figures.

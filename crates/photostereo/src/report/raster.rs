@@ -224,6 +224,27 @@ pub fn colorbar(cmap: ColorMap, width: usize, height: usize) -> Rgb {
     })
 }
 
+/// White level of an albedo picture: its 99th percentile inside the mask (highlights
+/// above it saturate), at least 1e-6.
+pub fn albedo_white(albedo: &GrayImage, mask: Option<&Mask>) -> f32 {
+    robust_range(albedo, mask).1.max(1e-6)
+}
+
+/// The albedo picture of the report and of `albedo.png`: grey, black = 0, white =
+/// [`albedo_white`]; outside the mask [`BACKGROUND`]. Returns the raster and the white level.
+pub fn albedo_picture(albedo: &GrayImage, mask: Option<&Mask>) -> (Rgb, f32) {
+    let hi = albedo_white(albedo, mask);
+    (scalar_rgb(albedo, mask, 0.0, hi, ColorMap::Gray), hi)
+}
+
+/// The depth picture of the report and of `depth.png`: viridis from the 1st (far, dark
+/// purple) to the 99th percentile (near, yellow) of the finite depths inside the mask;
+/// outside and NaN [`BACKGROUND`]. Returns the raster and the depth range (lo, hi) in pixels.
+pub fn depth_picture(depth: &GrayImage, mask: Option<&Mask>) -> (Rgb, (f32, f32)) {
+    let (lo, hi) = robust_range(depth, mask);
+    (scalar_rgb(depth, mask, lo, hi, ColorMap::Viridis), (lo, hi))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -31,47 +31,116 @@ function buildMesh(data) {
   return new THREE.Mesh(geom, material);
 }
 
+// Camera directions (unit vectors from the target toward the camera) and up vectors.
+const VIEWS = {
+  // Facing the object from slightly above: the rim hides the near inner wall of a hollow.
+  home: { dir: [0, Math.sin(0.35), Math.cos(0.35)], up: [0, 1, 0] },
+  front: { dir: [0, 0, 1], up: [0, 1, 0] },
+  side: { dir: [1, 0, 0], up: [0, 1, 0] },
+  top: { dir: [0, 1, 0.02], up: [0, 1, 0] }, // far side up; OrbitControls keeps y up
+};
+
+// Bounding box of the vertex positions.
+function bounds(pos) {
+  const lo = [Infinity, Infinity, Infinity];
+  const hi = [-Infinity, -Infinity, -Infinity];
+  for (let i = 0; i < pos.length; i += 3) {
+    for (let a = 0; a < 3; a++) {
+      lo[a] = Math.min(lo[a], pos[i + a]);
+      hi[a] = Math.max(hi[a], pos[i + a]);
+    }
+  }
+  return { lo, hi };
+}
+
+// Camera distance at which the box fills the view seen along `dir` with `up`.
+function fitDistance(box, center, dir, up, fovDeg, aspect) {
+  const back = new THREE.Vector3().fromArray(dir).normalize();
+  const upv = new THREE.Vector3().fromArray(up);
+  const right = new THREE.Vector3().crossVectors(upv, back).normalize();
+  const upo = new THREE.Vector3().crossVectors(back, right);
+  const t = Math.tan((fovDeg / 2) * Math.PI / 180);
+  let need = 0;
+  for (let k = 0; k < 8; k++) {
+    const p = new THREE.Vector3(
+      k & 1 ? box.hi[0] : box.lo[0], k & 2 ? box.hi[1] : box.lo[1], k & 4 ? box.hi[2] : box.lo[2]
+    ).sub(center);
+    const front = p.dot(back); // toward the camera: this corner is closer
+    need = Math.max(need, front + Math.abs(p.dot(upo)) / t, front + Math.abs(p.dot(right)) / (t * aspect));
+  }
+  return need * 1.08;
+}
+
 function start() {
   const data = JSON.parse(document.getElementById('ps-mesh').textContent);
   const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
   renderer.setPixelRatio(window.devicePixelRatio || 1);
   renderer.setSize(box.clientWidth, box.clientHeight);
+  renderer.shadowMap.enabled = true;
+  renderer.shadowMap.type = THREE.PCFSoftShadowMap;
   box.appendChild(renderer.domElement);
 
   const scene = new THREE.Scene();
   scene.background = new THREE.Color(0x1b1e24);
   const mesh = buildMesh(data);
+  mesh.castShadow = true;
+  mesh.receiveShadow = true;
   scene.add(mesh);
 
-  const c = new THREE.Vector3().fromArray(data.center);
-  const camera = new THREE.PerspectiveCamera(30, box.clientWidth / box.clientHeight, data.radius * 0.01, data.radius * 20);
-  const dist = data.radius / Math.sin((30 / 2) * Math.PI / 180) * 1.05;
-  const home = () => {
-    camera.position.set(c.x + 0.42 * dist, c.y - 0.5 * dist, c.z + 0.76 * dist);
-    camera.up.set(0, 1, 0);
-    camera.lookAt(c);
-  };
-  home();
+  const box3 = bounds(mesh.geometry.attributes.position.array);
+  const c = new THREE.Vector3(
+    (box3.lo[0] + box3.hi[0]) / 2, (box3.lo[1] + box3.hi[1]) / 2, (box3.lo[2] + box3.hi[2]) / 2
+  );
+  const size = Math.max(box3.hi[0] - box3.lo[0], box3.hi[1] - box3.lo[1], box3.hi[2] - box3.lo[2], 1e-3);
+  const FOV = 30;
+  const camera = new THREE.PerspectiveCamera(FOV, box.clientWidth / box.clientHeight, size * 0.01, size * 50);
   scene.add(camera);
-  scene.add(new THREE.HemisphereLight(0xffffff, 0x30343c, 0.45));
-  const head = new THREE.DirectionalLight(0xffffff, 2.4);
-  head.position.set(-0.7, 0.6, 0.45);
-  camera.add(head);
-  camera.add(head.target);
-  head.target.position.set(0, 0, -1);
+
+  // Soft fill from the sky, and a key light from the upper left of the view at a raking
+  // angle that casts shadows: relief reads from its shading, a hollow from the shadow of
+  // its rim on the inner wall.
+  scene.add(new THREE.HemisphereLight(0xffffff, 0x30343c, 0.55));
+  const key = new THREE.DirectionalLight(0xffffff, 2.2);
+  key.castShadow = true;
+  key.shadow.mapSize.set(2048, 2048);
+  const sc = key.shadow.camera;
+  sc.left = -size; sc.right = size; sc.top = size; sc.bottom = -size;
+  sc.near = size * 0.05; sc.far = size * 6;
+  key.shadow.bias = -0.0005;
+  key.shadow.normalBias = size * 0.002;
+  scene.add(key);
+  scene.add(key.target);
 
   const controls = new OrbitControls(camera, renderer.domElement);
-  controls.target.copy(c);
-  controls.update();
-  const render = () => renderer.render(scene, camera);
-  controls.addEventListener('change', render);
-
-  document.getElementById('ps-reset').addEventListener('click', () => {
-    home();
+  const placeLight = () => {
+    const back = camera.position.clone().sub(controls.target).normalize();
+    const right = new THREE.Vector3().crossVectors(camera.up, back).normalize();
+    const up = new THREE.Vector3().crossVectors(back, right);
+    key.position.copy(controls.target)
+      .addScaledVector(right, -1.4 * size).addScaledVector(up, 1.3 * size).addScaledVector(back, 1.2 * size);
+    key.target.position.copy(controls.target);
+    key.target.updateMatrixWorld();
+  };
+  const render = () => {
+    placeLight();
+    renderer.render(scene, camera);
+  };
+  const show = (name) => {
+    const v = VIEWS[name] || VIEWS.home;
+    const dist = fitDistance(box3, c, v.dir, v.up, FOV, camera.aspect);
+    camera.up.fromArray(v.up);
+    camera.position.copy(c).addScaledVector(new THREE.Vector3().fromArray(v.dir).normalize(), dist);
     controls.target.copy(c);
+    camera.lookAt(c);
     controls.update();
+    root.dataset.view = VIEWS[name] ? name : 'home';
     render();
-  });
+  };
+  controls.addEventListener('change', render);
+  for (const name of ['reset', 'front', 'side', 'top']) {
+    const b = document.getElementById('ps-' + name);
+    if (b) b.addEventListener('click', () => show(name === 'reset' ? 'home' : name));
+  }
   const albedo = document.getElementById('ps-albedo');
   albedo.disabled = !data.colors;
   albedo.addEventListener('change', () => {
@@ -87,7 +156,9 @@ function start() {
     render();
   });
 
-  render();
+  // `report.html#view=side` opens on that view (front, side, top; default: home).
+  const wanted = (location.hash.match(/view=(\w+)/) || [])[1];
+  show(wanted || 'home');
   requestAnimationFrame(() => {
     render();
     root.dataset.viewer = 'ready';

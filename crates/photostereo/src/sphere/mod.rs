@@ -197,6 +197,10 @@ impl Detection {
     /// One line for the CLI: the circle, its uncertainty and how it was fitted.
     pub fn describe(&self) -> String {
         let c = self.circle;
+        if self.edge_points == 0 {
+            // given (no fit, nothing to qualify)
+            return format!("cx {:.3}, cy {:.3}, r {:.3} px", c.cx, c.cy, c.radius);
+        }
         let blur = self
             .rim_blur_px
             .map(|b| format!(", rim blur {b:.2} px"))

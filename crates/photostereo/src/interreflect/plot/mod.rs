@@ -1,23 +1,47 @@
 //! PNG figures of the iteration: the cross-section depth profile of every iterate, from the
 //! shallow raw reconstruction to the deep compensated one (the classic figure of Nayar,
-//! Ikeuchi & Kanade), and the convergence of the change and the depth of the concavity.
+//! Ikeuchi & Kanade), and the convergence of the change (log axis, with the tolerance
+//! drawn) and of the depth of the concavity.
 //!
-//! Lines are drawn with `plotters` (bitmap backend); labels with a built-in 5×7 font
-//! ([`font`]); the RGB buffer is encoded as PNG in memory.
-
-pub mod font;
+//! Drawn with `plotters` (bitmap backend). Text is set in DejaVu Sans, embedded in the
+//! library (`assets/fonts/DejaVuSans.ttf`, licence beside it) and rendered through
+//! plotters' `ab_glyph` backend, so the plots look the same on every machine. Legends sit
+//! to the right of the data area, never over the curves.
 
 use super::nik::NikOutput;
 use crate::error::{Error, Result};
 use crate::image::{DepthMap, Mask};
+use plotters::coord::ranged1d::ValueFormatter;
 use plotters::prelude::*;
+use std::sync::OnceLock;
+
+/// DejaVu Sans (Bitstream Vera licence: `assets/fonts/LICENSE-DejaVu.txt`).
+const FONT_TTF: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
+/// Family name the embedded font is registered under.
+const FAMILY: &str = "sans-serif";
+
+/// Register the embedded font with plotters once; every later call returns the first result.
+fn ensure_font() -> Result<()> {
+    static DONE: OnceLock<bool> = OnceLock::new();
+    let ok = *DONE.get_or_init(|| {
+        plotters::style::register_font(FAMILY, FontStyle::Normal, FONT_TTF).is_ok()
+    });
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::invalid(
+            "the embedded plot font",
+            "rebuild the library (assets/fonts/DejaVuSans.ttf is not a valid TrueType font)",
+        ))
+    }
+}
 
 /// One curve of a line plot.
 #[derive(Clone, Debug)]
 pub struct Series {
     /// Legend text.
     pub label: String,
-    /// (x, y) points in data units; non-finite points break the line.
+    /// (x, y) points in data units; non-finite points (and y ≤ 0 on a log axis) break the line.
     pub points: Vec<(f64, f64)>,
     /// RGB colour.
     pub color: [u8; 3],
@@ -25,7 +49,18 @@ pub struct Series {
     pub width: u32,
 }
 
-/// A line plot with axes, ticks, title and legend, encoded as PNG.
+/// A horizontal reference line (e.g. a tolerance), dashed, with its own legend entry.
+#[derive(Clone, Debug)]
+pub struct RefLine {
+    /// Legend text.
+    pub label: String,
+    /// Height in data units.
+    pub y: f64,
+    /// RGB colour.
+    pub color: [u8; 3],
+}
+
+/// A line plot with axes, ticks, title and a legend to the right of the data.
 #[derive(Clone, Debug)]
 pub struct LinePlot {
     /// Title above the plot.
@@ -36,190 +71,266 @@ pub struct LinePlot {
     pub y_label: String,
     /// The curves.
     pub series: Vec<Series>,
-    /// Image size in pixels.
-    pub size: (usize, usize),
-}
-
-const LEFT: usize = 80;
-const BOTTOM: usize = 50;
-const TOP: usize = 40;
-const RIGHT: usize = 20;
-
-impl LinePlot {
-    /// Render to PNG bytes.
-    pub fn to_png(&self) -> Result<Vec<u8>> {
-        let (w, h) = self.size;
-        let pts = self.series.iter().flat_map(|s| s.points.iter());
-        let finite: Vec<(f64, f64)> = pts
-            .filter(|p| p.0.is_finite() && p.1.is_finite())
-            .copied()
-            .collect();
-        if finite.is_empty() || w < LEFT + RIGHT + 50 || h < TOP + BOTTOM + 50 {
-            return Err(Error::invalid(
-                format!("plot `{}`", self.title),
-                "give at least one finite point and a size of at least 200×150",
-            ));
-        }
-        let (x0, x1) = padded(finite.iter().map(|p| p.0));
-        let (y0, y1) = padded(finite.iter().map(|p| p.1));
-        let mut buf = vec![255u8; w * h * 3];
-        let mut texts: Vec<((i64, i64), String, usize)> = Vec::new();
-        draw_lines(self, &mut buf, (x0, x1, y0, y1), &mut texts).map_err(|e| {
-            Error::invalid(
-                format!("plot `{}`", self.title),
-                format!("drawing failed: {e}"),
-            )
-        })?;
-        for ((x, y), t, scale) in texts {
-            font::draw_text(&mut buf, (w, h), (x, y), &t, scale, [20, 20, 20]);
-        }
-        encode_png(&buf, w, h)
-    }
-}
-
-fn draw_lines(
-    plot: &LinePlot,
-    buf: &mut [u8],
-    (x0, x1, y0, y1): (f64, f64, f64, f64),
-    texts: &mut Vec<((i64, i64), String, usize)>,
-) -> std::result::Result<(), String> {
-    let (w, h) = plot.size;
-    let err = |e: &dyn std::fmt::Debug| format!("{e:?}");
-    let root = BitMapBackend::with_buffer(buf, (w as u32, h as u32)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .margin_top(TOP as u32)
-        .margin_right(RIGHT as u32)
-        .set_label_area_size(LabelAreaPosition::Left, LEFT as u32)
-        .set_label_area_size(LabelAreaPosition::Bottom, BOTTOM as u32)
-        .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(|e| err(&e))?;
-    let grey = RGBColor(200, 200, 200);
-    let black = RGBColor(0, 0, 0);
-    for t in nice_ticks(x0, x1) {
-        let (px, py) = chart.backend_coord(&(t, y0));
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                vec![(t, y0), (t, y1)],
-                grey,
-            )))
-            .map_err(|e| err(&e))?;
-        let s = fmt_tick(t);
-        texts.push((
-            (
-                px as i64 - font::text_width(&s, 2) as i64 / 2,
-                py as i64 + 8,
-            ),
-            s,
-            2,
-        ));
-    }
-    for t in nice_ticks(y0, y1) {
-        let (px, py) = chart.backend_coord(&(x0, t));
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                vec![(x0, t), (x1, t)],
-                grey,
-            )))
-            .map_err(|e| err(&e))?;
-        let s = fmt_tick(t);
-        texts.push((
-            (
-                px as i64 - font::text_width(&s, 2) as i64 - 6,
-                py as i64 - 7,
-            ),
-            s,
-            2,
-        ));
-    }
-    let frame = vec![(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)];
-    chart
-        .draw_series(std::iter::once(PathElement::new(frame, black)))
-        .map_err(|e| err(&e))?;
-    for s in &plot.series {
-        let style = RGBColor(s.color[0], s.color[1], s.color[2]).stroke_width(s.width);
-        for run in s.points.split(|p| !(p.0.is_finite() && p.1.is_finite())) {
-            if run.len() > 1 {
-                chart
-                    .draw_series(LineSeries::new(run.iter().copied(), style))
-                    .map_err(|e| err(&e))?;
-            }
-        }
-    }
-    legend(plot, &root, texts)?;
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+    /// Dashed horizontal reference lines.
+    pub ref_lines: Vec<RefLine>,
+    /// Logarithmic vertical axis.
+    pub y_log: bool,
 }
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
 
-fn legend(
-    plot: &LinePlot,
-    root: &Area<'_>,
-    texts: &mut Vec<((i64, i64), String, usize)>,
-) -> std::result::Result<(), String> {
-    let (w, h) = plot.size;
-    texts.push(((LEFT as i64, 10), plot.title.clone(), 2));
-    let xl = &plot.x_label;
-    let xw = font::text_width(xl, 2) as i64;
-    texts.push((
-        ((LEFT + w) as i64 / 2 - xw / 2, h as i64 - 20),
-        xl.clone(),
-        2,
-    ));
-    texts.push(((4, TOP as i64 - 14), plot.y_label.clone(), 1));
-    let lw = plot
-        .series
-        .iter()
-        .map(|s| font::text_width(&s.label, 1))
-        .max()
-        .unwrap_or(0);
-    let x = (w - RIGHT - lw - 40) as i32;
-    for (i, s) in plot.series.iter().enumerate() {
-        let y = (TOP + 12 + 12 * i) as i32;
-        let c = RGBColor(s.color[0], s.color[1], s.color[2]).stroke_width(s.width.max(2));
-        root.draw(&PathElement::new(vec![(x, y), (x + 24, y)], c))
-            .map_err(|e| format!("{e:?}"))?;
-        texts.push((((x + 30) as i64, y as i64 - 3), s.label.clone(), 1));
+impl LinePlot {
+    /// Render alone to PNG bytes of `size` pixels.
+    pub fn to_png(&self, size: (usize, usize)) -> Result<Vec<u8>> {
+        render_png(size, |root| self.draw(root))
     }
-    Ok(())
+
+    /// Draw into an area (a whole figure or one panel of it).
+    fn draw(&self, area: &Area<'_>) -> Result<()> {
+        let fail = |e: &dyn std::fmt::Debug| {
+            Error::invalid(
+                format!("plot `{}`", self.title),
+                format!("drawing failed: {e:?}"),
+            )
+        };
+        let pts = || {
+            self.series
+                .iter()
+                .flat_map(|s| s.points.iter())
+                .copied()
+                .filter(|p| self.usable(*p))
+        };
+        if pts().next().is_none() {
+            return Err(Error::invalid(
+                format!("plot `{}`", self.title),
+                "give at least one finite point (positive on a log axis)",
+            ));
+        }
+        let (x0, x1) = padded(pts().map(|p| p.0), false);
+        let refs = self.ref_lines.iter().map(|r| r.y).filter(|y| y.is_finite());
+        let (y0, y1) = padded(pts().map(|p| p.1).chain(refs), self.y_log);
+        let (w, h) = area.dim_in_pixel();
+        let legend_w = self.legend_width(area).min(w / 3);
+        let (plot_area, legend_area) = area.split_horizontally(w - legend_w);
+        let mut chart = ChartBuilder::on(&plot_area);
+        chart
+            .caption(&self.title, (FAMILY, 18))
+            .margin(8)
+            .x_label_area_size(40)
+            .y_label_area_size(62);
+        let _ = h;
+        let style = |s: &Series| RGBColor(s.color[0], s.color[1], s.color[2]).stroke_width(s.width);
+        if self.y_log {
+            let mut c = chart
+                .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+                .map_err(|e| fail(&e))?;
+            self.mesh(&mut c).map_err(|e| fail(&e))?;
+            for s in &self.series {
+                for run in s.points.split(|p| !self.usable(*p)).filter(|r| r.len() > 1) {
+                    c.draw_series(LineSeries::new(run.iter().copied(), style(s)))
+                        .map_err(|e| fail(&e))?;
+                }
+            }
+            self.draw_refs(&mut c, x0, x1).map_err(|e| fail(&e))?;
+        } else {
+            let mut c = chart
+                .build_cartesian_2d(x0..x1, y0..y1)
+                .map_err(|e| fail(&e))?;
+            self.mesh(&mut c).map_err(|e| fail(&e))?;
+            for s in &self.series {
+                for run in s.points.split(|p| !self.usable(*p)).filter(|r| r.len() > 1) {
+                    c.draw_series(LineSeries::new(run.iter().copied(), style(s)))
+                        .map_err(|e| fail(&e))?;
+                }
+            }
+            self.draw_refs(&mut c, x0, x1).map_err(|e| fail(&e))?;
+        }
+        self.legend(&legend_area).map_err(|e| fail(&e))
+    }
+
+    fn usable(&self, p: (f64, f64)) -> bool {
+        p.0.is_finite() && p.1.is_finite() && (!self.y_log || p.1 > 0.0)
+    }
+
+    /// Grid, ticks and axis labels; tick labels of one axis share one format.
+    fn mesh<'a, Y>(
+        &self,
+        c: &mut ChartContext<
+            'a,
+            BitMapBackend<'a>,
+            Cartesian2d<plotters::coord::types::RangedCoordf64, Y>,
+        >,
+    ) -> std::result::Result<(), String>
+    where
+        Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    {
+        let xr = c.x_range();
+        let yr = c.y_range();
+        // Whole-number x (iterations): one tick per integer, no decimals.
+        let integer_x = self
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter())
+            .all(|p| !p.0.is_finite() || p.0.fract() == 0.0)
+            && xr.end - xr.start <= 30.0;
+        let (x_dec, x_ticks) = if integer_x {
+            (0, (xr.end - xr.start).floor() as usize + 1)
+        } else {
+            (decimals(xr.end - xr.start), 10)
+        };
+        let y_dec = decimals(yr.end - yr.start);
+        let y_log = self.y_log;
+        // A log axis spans whole decades: one labelled tick per decade.
+        let y_ticks = if y_log {
+            (yr.end / yr.start).log10().round() as usize + 1
+        } else {
+            10
+        };
+        c.configure_mesh()
+            .x_desc(&self.x_label)
+            .y_desc(&self.y_label)
+            .x_labels(x_ticks)
+            .y_labels(y_ticks)
+            .axis_desc_style((FAMILY, 15))
+            .label_style((FAMILY, 13))
+            .light_line_style(TRANSPARENT)
+            .bold_line_style(RGBColor(215, 215, 215))
+            .x_label_formatter(&|v| format!("{v:.x_dec$}"))
+            .y_label_formatter(&|v| {
+                if y_log {
+                    log_tick(*v)
+                } else {
+                    format!("{v:.y_dec$}")
+                }
+            })
+            .draw()
+            .map_err(|e| format!("{e:?}"))
+    }
+
+    fn draw_refs<'a, Y>(
+        &self,
+        c: &mut ChartContext<
+            'a,
+            BitMapBackend<'a>,
+            Cartesian2d<plotters::coord::types::RangedCoordf64, Y>,
+        >,
+        x0: f64,
+        x1: f64,
+    ) -> std::result::Result<(), String>
+    where
+        Y: Ranged<ValueType = f64>,
+    {
+        for r in &self.ref_lines {
+            let style = RGBColor(r.color[0], r.color[1], r.color[2]).stroke_width(2);
+            c.draw_series(DashedLineSeries::new(
+                vec![(x0, r.y), (x1, r.y)],
+                10,
+                6,
+                style,
+            ))
+            .map_err(|e| format!("{e:?}"))?;
+        }
+        Ok(())
+    }
+
+    fn legend_entries(&self) -> Vec<(String, [u8; 3], u32, bool)> {
+        let mut v: Vec<_> = self
+            .series
+            .iter()
+            .map(|s| (s.label.clone(), s.color, s.width, false))
+            .collect();
+        v.extend(
+            self.ref_lines
+                .iter()
+                .map(|r| (r.label.clone(), r.color, 2, true)),
+        );
+        v
+    }
+
+    fn legend_width(&self, area: &Area<'_>) -> u32 {
+        let font: TextStyle = (FAMILY, 13).into_font().into();
+        let text = self
+            .legend_entries()
+            .iter()
+            .map(|e| area.estimate_text_size(&e.0, &font).map_or(120, |s| s.0))
+            .max()
+            .unwrap_or(0);
+        text + 50
+    }
+
+    /// The legend: one line sample and label per entry, top-aligned with the data area.
+    fn legend(&self, area: &Area<'_>) -> std::result::Result<(), String> {
+        let err = |e: &dyn std::fmt::Debug| format!("{e:?}");
+        let font = (FAMILY, 13).into_font().color(&RGBColor(30, 30, 30));
+        for (i, (label, color, width, dashed)) in self.legend_entries().into_iter().enumerate() {
+            let y = 44 + 20 * i as i32;
+            let c = RGBColor(color[0], color[1], color[2]).stroke_width(width.max(2));
+            let segs: Vec<((i32, i32), (i32, i32))> = if dashed {
+                vec![((4, y), (11, y)), ((16, y), (23, y)), ((28, y), (30, y))]
+            } else {
+                vec![((4, y), (30, y))]
+            };
+            for (a, b) in segs {
+                area.draw(&PathElement::new(vec![a, b], c))
+                    .map_err(|e| err(&e))?;
+            }
+            area.draw(&Text::new(label, (36, y - 7), font.clone()))
+                .map_err(|e| err(&e))?;
+        }
+        Ok(())
+    }
 }
 
-fn padded(v: impl Iterator<Item = f64>) -> (f64, f64) {
+/// Draw with `draw` on a white canvas of `size` and encode as PNG.
+fn render_png(size: (usize, usize), draw: impl FnOnce(&Area<'_>) -> Result<()>) -> Result<Vec<u8>> {
+    let (w, h) = size;
+    if w < 200 || h < 150 {
+        return Err(Error::invalid(
+            format!("plot of {w}×{h} pixels"),
+            "give a size of at least 200×150",
+        ));
+    }
+    ensure_font()?;
+    let mut buf = vec![255u8; w * h * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w as u32, h as u32)).into_drawing_area();
+        draw(&root)?;
+        root.present()
+            .map_err(|e| Error::invalid("plot", format!("drawing failed: {e:?}")))?;
+    }
+    encode_png(&buf, w, h)
+}
+
+/// Data range with 5 % padding (a factor on a log axis).
+fn padded(v: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |a, x| {
         (a.0.min(x), a.1.max(x))
     });
-    let pad = ((hi - lo) * 0.05).max(1e-9);
+    if log {
+        // Whole decades around the data.
+        let lo = (lo.log10() - 1e-9).floor();
+        let hi = (hi.log10() + 1e-9).ceil().max(lo + 1.0);
+        return (10f64.powf(lo), 10f64.powf(hi));
+    }
+    let pad = ((hi - lo) * 0.05).max(1e-9 + lo.abs() * 1e-6);
     (lo - pad, hi + pad)
 }
 
-/// About five round tick values in [lo, hi].
-pub fn nice_ticks(lo: f64, hi: f64) -> Vec<f64> {
-    let span = (hi - lo).max(1e-12);
-    let raw = span / 5.0;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| span / s <= 6.0)
-        .unwrap_or(10.0 * mag);
-    let first = (lo / step).ceil() as i64;
-    let last = (hi / step).floor() as i64;
-    (first..=last).map(|i| i as f64 * step).collect()
+/// Decimals for the ticks of an axis spanning `span` (about 5 ticks).
+fn decimals(span: f64) -> usize {
+    let step = (span / 5.0).abs().max(1e-12);
+    (-step.log10().floor()).clamp(0.0, 6.0) as usize
 }
 
-fn fmt_tick(t: f64) -> String {
-    let a = t.abs();
-    if a == 0.0 {
-        "0".into()
-    } else if !(0.01..1000.0).contains(&a) {
-        format!("{t:.0e}")
-    } else if (t - t.round()).abs() < 1e-9 {
-        format!("{t:.0}")
-    } else if a >= 1.0 {
-        format!("{t:.1}")
+/// A log-axis tick: plain decimals down to 0.001, scientific below.
+fn log_tick(v: f64) -> String {
+    if v >= 1.0 {
+        format!("{v:.0}")
+    } else if v >= 1e-3 {
+        let d = (-v.log10()).ceil().max(1.0) as usize;
+        format!("{v:.d$}")
     } else {
-        format!("{t:.2}")
+        format!("{v:.0e}")
     }
 }
 
@@ -228,7 +339,7 @@ fn encode_png(rgb: &[u8], w: usize, h: usize) -> Result<Vec<u8>> {
     let mut out = Vec::new();
     image::codecs::png::PngEncoder::new(&mut out)
         .write_image(rgb, w as u32, h as u32, image::ExtendedColorType::Rgb8)
-        .map_err(|e| Error::invalid("profile plot", format!("PNG encoding failed: {e}")))?;
+        .map_err(|e| Error::invalid("plot", format!("PNG encoding failed: {e}")))?;
     Ok(out)
 }
 
@@ -288,10 +399,10 @@ pub fn profile_plot_png(
         .iter()
         .enumerate()
         .map(|(t, it)| Series {
-            label: if t == 0 {
-                "iter 0 (raw)".into()
-            } else {
-                format!("iter {t}")
+            label: match t {
+                0 => "iteration 0 (raw)".into(),
+                t if t == out.best => format!("iteration {t} (kept)"),
+                t => format!("iteration {t}"),
             },
             points: profile(&it.shape.depth, mask, row),
             color: iterate_color(t, n),
@@ -300,31 +411,28 @@ pub fn profile_plot_png(
         .collect();
     if let Some(z) = truth {
         series.push(Series {
-            label: "truth".into(),
+            label: "ground truth".into(),
             points: profile(z, mask, row),
             color: [220, 30, 30],
             width: 2,
         });
     }
     LinePlot {
-        title: format!("Depth profile, row {row}: shallow (raw) to deep"),
+        title: format!("Depth profile along row {row}"),
         x_label: "column (px)".into(),
-        y_label: "depth (px)".into(),
+        y_label: "depth below the rim (px)".into(),
         series,
-        size: (800, 500),
+        ref_lines: Vec::new(),
+        y_log: false,
     }
-    .to_png()
+    .to_png((800, 500))
 }
 
-/// Convergence: the relative change per iteration and the depth of the concavity relative to
-/// the last iterate's, as a PNG of 800×400.
+/// Convergence, as a PNG of 800×600 in two panels: above, the relative change per iteration
+/// on a log axis with the tolerance of the stopping test drawn; below, the depth of the
+/// concavity (px) per iteration.
 pub fn convergence_plot_png(out: &NikOutput) -> Result<Vec<u8>> {
-    let last = out
-        .iterations
-        .last()
-        .map_or(1.0, |i| i.depth_range as f64)
-        .max(1e-9);
-    let change = out
+    let change: Vec<(f64, f64)> = out
         .iterations
         .iter()
         .enumerate()
@@ -335,27 +443,47 @@ pub fn convergence_plot_png(out: &NikOutput) -> Result<Vec<u8>> {
         .iterations
         .iter()
         .enumerate()
-        .map(|(t, i)| (t as f64, i.depth_range as f64 / last))
+        .map(|(t, i)| (t as f64, i.depth_range as f64))
         .collect();
-    LinePlot {
-        title: "Convergence".into(),
-        x_label: "iteration".into(),
-        y_label: "relative value".into(),
-        series: vec![
-            Series {
-                label: "mean change / depth range".into(),
-                points: change,
-                color: [30, 60, 200],
-                width: 2,
-            },
-            Series {
-                label: "depth range / final".into(),
-                points: range,
-                color: [200, 100, 20],
-                width: 2,
-            },
-        ],
-        size: (800, 400),
+    let mut ref_lines = Vec::new();
+    if out.tol > 0.0 {
+        ref_lines.push(RefLine {
+            label: format!("tolerance {}", out.tol),
+            y: out.tol as f64,
+            color: [200, 30, 30],
+        });
     }
-    .to_png()
+    let top = LinePlot {
+        title: "Change between iterations".into(),
+        x_label: "iteration".into(),
+        y_label: "Δz spread / depth range".into(),
+        series: vec![Series {
+            label: "relative change".into(),
+            points: change,
+            color: [30, 60, 200],
+            width: 2,
+        }],
+        ref_lines,
+        y_log: true,
+    };
+    let bottom = LinePlot {
+        title: "Depth range (the depth of a concavity)".into(),
+        x_label: "iteration".into(),
+        y_label: "depth range (px)".into(),
+        series: vec![Series {
+            label: "depth range".into(),
+            points: range,
+            color: [200, 100, 20],
+            width: 2,
+        }],
+        ref_lines: Vec::new(),
+        y_log: false,
+    };
+    render_png((800, 600), |root| {
+        let (a, b) = root.split_vertically(300);
+        if top.series[0].points.iter().any(|p| top.usable(*p)) {
+            top.draw(&a)?;
+        }
+        bottom.draw(&b)
+    })
 }

@@ -1,0 +1,342 @@
+"""photostereo: photometric stereo for real, shiny objects (numpy in and out).
+
+Calibration-based photometric stereo (a lookup table from a sphere of the same
+material under the same lights; Woodham 1994, Hertzmann & Seitz 2005), Lambertian
+photometric stereo, light calibration from a chrome or matte sphere, integration of
+normals into depth, and interreflection removal (Nayar, Ikeuchi & Kanade 1991). The
+computations run in the Rust library `photostereo` with the GIL released.
+
+Conventions (as the command-line tool): x right, y up, z toward the camera,
+orthographic; normals (H, W, 3) float32 unit vectors; p = -nx/nz, q = -ny/nz;
+depth (H, W) float32 in pixels, larger = closer, NaN outside the mask; lights are
+unit directions from the surface toward the light.
+
+Errors: FileNotFoundError for a missing path, OSError for other file problems,
+ValueError for bad data or arguments; the message names the file and the fix.
+
+Example::
+
+    import photostereo as ps
+    table = ps.calibrate("data/sphere")             # find the sphere, build the table
+    res = table.lookup("data/vase")                 # normals (H, W, 3), confidence
+    depth = ps.integrate(res.normals, ps.load_dataset("data/vase").mask)
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _native
+from ._native import Dataset, Result, Table
+
+__all__ = [
+    "Dataset",
+    "Result",
+    "Table",
+    "load_dataset",
+    "calibrate",
+    "lookup",
+    "lambertian",
+    "lights_from_sphere",
+    "integrate",
+    "interreflect",
+    "run",
+]
+
+__version__ = _native.__version__
+
+PathLike = Union[str, "os.PathLike[str]"]
+Images = Union[Dataset, PathLike, np.ndarray]
+
+
+def load_dataset(path: PathLike) -> Dataset:
+    """Read a dataset directory (DiLiGenT layout).
+
+    The directory holds one image per light (8/16-bit PNG or TIFF, grayscale or RGB),
+    sorted by name or listed in ``filenames.txt``; ``light_directions.txt`` (K lines
+    ``x y z``), optional ``light_intensities.txt`` and optional ``mask.png``.
+
+    Returns a :class:`Dataset` with ``.images`` (K, H, W) float32 linear luminance
+    (light intensities divided out), ``.lights`` (K, 3) or None, ``.mask`` (H, W) bool
+    or None, ``.names``.
+
+    Raises FileNotFoundError (no such directory), OSError, ValueError (bad file).
+    """
+    return _native.load_dataset(os.fspath(path))
+
+
+def _dataset(x: Images) -> Dataset:
+    """A Dataset from a Dataset, a directory path or a (K, H, W) array."""
+    if isinstance(x, Dataset):
+        return x
+    if isinstance(x, (str, os.PathLike)):
+        return load_dataset(x)
+    arr = np.asarray(x)
+    if arr.ndim != 3:
+        raise ValueError(
+            f"images of shape {arr.shape}: give a Dataset, a dataset directory or a (K, H, W) array"
+        )
+    return Dataset(np.asarray(arr, dtype=np.float32))
+
+
+def _mask(mask: Any, default: Optional[np.ndarray] = None) -> Optional[np.ndarray]:
+    if mask is None:
+        return default
+    if isinstance(mask, (str, os.PathLike)):
+        raise ValueError("mask: give an (H, W) bool array (load a mask file with load_dataset)")
+    m = np.asarray(mask)
+    if m.ndim != 2:
+        raise ValueError(f"mask of shape {m.shape}: give an (H, W) bool array")
+    return np.ascontiguousarray(m != 0)
+
+
+def calibrate(
+    sphere: Union[Dataset, PathLike],
+    *,
+    circle: Optional[Sequence[float]] = None,
+    sphere_region: Optional[Sequence[int]] = None,
+    mask: Optional[np.ndarray] = None,
+    rim: float = 2.0,
+    material: str = "",
+    smooth: Optional[float] = None,
+) -> Table:
+    """Find the calibration sphere and build its lookup table (``photostereo calibrate``).
+
+    sphere: a Dataset or a directory with the K images of a sphere of the target's
+        material under the target's lights.
+    circle: (cx, cy, r) in pixels to use instead of detecting the sphere; cx along
+        columns, cy along rows, pixel (r, c) centred at (c + 0.5, r + 0.5).
+    sphere_region: (x, y, w, h) window to search the sphere in (left column, top row,
+        width, height), when the sphere shares the images with the target.
+    mask: (H, W) bool; search the sphere only inside it. Default: the dataset's own
+        mask.png when it has one (as ``photostereo run --sphere`` does).
+    rim: leave out this many pixels inside the rim (grazing normals, mixed pixels).
+    material: free-text name stored in the table.
+    smooth: Gaussian blur of the sphere images against noise (pixels); default: chosen
+        from the noise measured on the sphere (none on clean images).
+
+    Returns a :class:`Table` (``.circle`` = (cx, cy, r), ``.save(path)``,
+    ``Table.load(path)``, ``.lookup(target)``).
+
+    Raises ValueError when no sphere is found (check the circle, give ``circle=``).
+    """
+    ds = _dataset(sphere)
+    return _native.calibrate(
+        ds.images,
+        ds.names,
+        mask=_mask(mask, ds.mask),
+        circle=None if circle is None else tuple(float(v) for v in circle),
+        sphere_region=None if sphere_region is None else tuple(int(v) for v in sphere_region),
+        rim=float(rim),
+        material=material,
+        smooth=smooth,
+    )
+
+
+def lookup(
+    target: Images,
+    tables: Sequence[Table],
+    *,
+    mask: Optional[np.ndarray] = None,
+    normalize: bool = False,
+) -> Result:
+    """Normals of a target by table lookup (``photostereo normals --lut``).
+
+    target: a Dataset, a dataset directory or a (K, H, W) float32 array, under the
+        same K lights (same order) as the tables' sphere.
+    tables: one Table, or two for a mixture of two materials (Hertzmann & Seitz:
+        t = a I_A(n) + b I_B(n), a, b >= 0; the weights come back in ``.weights``).
+    mask: (H, W) bool pixels to solve (default: the dataset's mask, else all).
+    normalize: fit an albedo relative to the sphere (``.albedo``), for albedo changes.
+
+    Returns a :class:`Result`: ``.normals`` (H, W, 3) float32, ``.confidence`` (H, W),
+    ``.albedo`` (normalize only), ``.residual``, ``.weights`` (two tables).
+    """
+    if isinstance(tables, Table):
+        tables = [tables]
+    ds = _dataset(target)
+    return _native.lookup(
+        ds.images, ds.names, list(tables), mask=_mask(mask, ds.mask), normalize=normalize
+    )
+
+
+def lambertian(
+    images: Images,
+    lights: Optional[np.ndarray] = None,
+    mask: Optional[np.ndarray] = None,
+    *,
+    robust: bool = True,
+) -> Result:
+    """Lambertian photometric stereo with known lights (``photostereo normals --lambertian``).
+
+    images: a Dataset, a dataset directory or a (K, H, W) array.
+    lights: (K, 3) unit directions (surface -> light); default: the dataset's.
+    mask: (H, W) bool (default: the dataset's, else all pixels).
+    robust: drop shadowed and highlight samples per pixel (False: plain least squares).
+
+    Returns a :class:`Result` with ``.normals`` (H, W, 3), ``.albedo`` (H, W), ``.residual``.
+    """
+    ds = _dataset(images)
+    if lights is None:
+        lights = ds.lights
+    if lights is None:
+        raise ValueError("no light directions: pass lights=(K, 3) or a dataset with light_directions.txt")
+    return _native.lambertian(
+        ds.images, np.asarray(lights, dtype=np.float32), mask=_mask(mask, ds.mask), robust=robust
+    )
+
+
+def lights_from_sphere(
+    dataset: Images,
+    kind: str = "chrome",
+    *,
+    mask: Optional[np.ndarray] = None,
+    circle: Optional[Sequence[float]] = None,
+) -> np.ndarray:
+    """Light directions from a sphere imaged under the lights (``photostereo lights``).
+
+    dataset: a Dataset, a dataset directory or a (K, H, W) array of the sphere.
+    kind: "chrome" (mirror sphere: one highlight per light) or "matte" (Lambertian fit).
+    mask: (H, W) bool; for a chrome sphere, its silhouette (the better outline on a
+        dark background). Default: the dataset's mask.
+    circle: (cx, cy, r) in pixels instead of detecting the sphere.
+
+    Returns (K, 3) float32 unit directions (surface -> light, camera frame).
+    """
+    ds = _dataset(dataset)
+    return _native.lights_from_sphere(
+        ds.images,
+        mask=_mask(mask, ds.mask),
+        kind=kind,
+        circle=None if circle is None else tuple(float(v) for v in circle),
+    )
+
+
+def integrate(
+    normals: np.ndarray,
+    mask: Optional[np.ndarray] = None,
+    *,
+    method: str = "auto",
+    camera: Any = None,
+    weights: Optional[np.ndarray] = None,
+) -> np.ndarray:
+    """Depth from a normal map (``photostereo integrate``).
+
+    normals: (H, W, 3) unit normals (x right, y up, z toward the camera).
+    mask: (H, W) bool pixels to integrate (default: all).
+    method: "auto" (DCT Poisson on a full rectangle, masked least squares with a
+        mask), "path", "fc", "fc-reflect", "dct" or "lsq".
+    camera: None (orthographic, the only camera the library models).
+    weights: (H, W) per-pixel confidence for "lsq".
+
+    Returns (H, W) float32 depth in pixels, larger = closer, NaN outside the mask.
+    """
+    if camera is not None:
+        raise ValueError(
+            "camera: only the orthographic camera (camera=None) is supported; "
+            "normals must be in the orthographic camera frame"
+        )
+    n = np.asarray(normals, dtype=np.float32)
+    w = None if weights is None else np.asarray(weights, dtype=np.float32)
+    return _native.integrate(n, mask=_mask(mask), method=method, weights=w)
+
+
+def interreflect(
+    dataset: Images,
+    *,
+    lights: Optional[np.ndarray] = None,
+    mask: Optional[np.ndarray] = None,
+    max_iter: int = 10,
+    tol: float = 0.01,
+    image_scale: float = 1.0,
+    method: str = "auto",
+) -> dict:
+    """Remove interreflections (Nayar-Ikeuchi-Kanade iteration, ``photostereo interreflect``).
+
+    dataset: a Lambertian Dataset, directory or (K, H, W) array, in radiance units
+        (multiply by image_scale to get there: bounced light depends on absolute albedo).
+    lights: (K, 3) directions (default: the dataset's); mask: (H, W) bool.
+    max_iter: most compensation steps; tol: stop when the change of the shape falls
+        below this fraction of the depth range.
+
+    Returns a dict: "normals" (H, W, 3), "albedo" (H, W), "depth" (H, W) of the kept
+    iterate, "summary", "csv", "iterations" (list of dicts: depth_range, mean_albedo,
+    relative_change), "best" (index of the kept iterate).
+    """
+    ds = _dataset(dataset)
+    if lights is None:
+        lights = ds.lights
+    if lights is None:
+        raise ValueError("no light directions: pass lights=(K, 3) or a dataset with light_directions.txt")
+    images = ds.images
+    if image_scale != 1.0:
+        images = images * np.float32(image_scale)
+    normals, albedo, depth, summary, csv, rows, best = _native.interreflect(
+        images,
+        np.asarray(lights, dtype=np.float32),
+        mask=_mask(mask, ds.mask),
+        max_iter=int(max_iter),
+        tol=float(tol),
+        method=method,
+    )
+    return {
+        "normals": normals,
+        "albedo": albedo,
+        "depth": depth,
+        "summary": summary,
+        "csv": csv,
+        "best": best,
+        "iterations": [
+            {"iteration": t, "depth_range": d, "mean_albedo": a, "relative_change": c}
+            for (t, d, a, c) in rows
+        ],
+    }
+
+
+def run(
+    target: PathLike,
+    out: PathLike,
+    *,
+    sphere: Union[PathLike, Table, None] = None,
+    lambertian: bool = False,
+    lights: Optional[PathLike] = None,
+    chrome: Optional[PathLike] = None,
+    interreflections: bool = False,
+    image_scale: Optional[float] = None,
+    method: Optional[str] = None,
+    mask: Optional[PathLike] = None,
+) -> dict:
+    """The whole job on a dataset directory, as ``photostereo run`` (same outputs).
+
+    target: dataset directory; out: output directory (created).
+    sphere: calibration sphere directory, or a Table built beforehand (calibration-based).
+    lambertian: Lambertian photometric stereo with known lights (the dataset's
+        light_directions.txt, or ``lights`` file, or ``chrome`` sphere directory).
+    interreflections: remove interreflections (Lambertian only).
+    image_scale: factor to bring the images to radiance units (Lambertian).
+    method: integrator ("path", "fc", "fc-reflect", "dct", "lsq"; default from the mask).
+    mask: mask file instead of the dataset's mask.png.
+
+    Writes normals.npy/png, albedo, confidence, depth.npy/png, mesh.ply, run.json,
+    report.html into ``out``; returns what run.json holds (a dict).
+    """
+    table = sphere if isinstance(sphere, Table) else None
+    sphere_path = None if sphere is None or table is not None else os.fspath(sphere)
+    text = _native.run(
+        os.fspath(target),
+        os.fspath(out),
+        sphere=sphere_path,
+        table=table,
+        lambertian=lambertian,
+        lights=None if lights is None else os.fspath(lights),
+        chrome=None if chrome is None else os.fspath(chrome),
+        mask=None if mask is None else os.fspath(mask),
+        image_scale=image_scale,
+        interreflections=interreflections,
+        method=method,
+    )
+    return json.loads(text)

@@ -1,0 +1,288 @@
+//! The computations: lookup, Lambertian, lights from a sphere, integration,
+//! interreflections and the whole `run`.
+
+use std::path::PathBuf;
+
+use numpy::{PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3};
+use photostereo::image::{GrayImage, ImageStack, Mask};
+use photostereo::progress::NoProgress;
+use photostereo::{integrate as integ, interreflect as ir, lambertian as lamb, lightcal};
+use photostereo::{lut, pipeline, sphere};
+use pyo3::prelude::*;
+
+use crate::convert::{self, value_error};
+use crate::table::Table;
+
+/// Normals and the maps that come with them.
+#[pyclass(module = "photostereo._native", name = "Result", frozen)]
+pub struct LookupResult {
+    /// (H, W, 3) float32 unit normals, [0, 0, 0] outside the mask.
+    #[pyo3(get)]
+    normals: Py<PyArray3<f32>>,
+    /// (H, W) float32 albedo (Lambertian; lookup with normalize=True), else None.
+    #[pyo3(get)]
+    albedo: Option<Py<PyArray2<f32>>>,
+    /// (H, W) float32 confidence in [0, 1] (lookup), else None.
+    #[pyo3(get)]
+    confidence: Option<Py<PyArray2<f32>>>,
+    /// (H, W) float32 RMS residual per light used.
+    #[pyo3(get)]
+    residual: Py<PyArray2<f32>>,
+    /// Mixture weights [(H, W), (H, W)] for two tables, else None.
+    #[pyo3(get)]
+    weights: Option<Vec<Py<PyArray2<f32>>>>,
+}
+
+#[pymethods]
+impl LookupResult {
+    fn __repr__(&self, py: Python<'_>) -> String {
+        use numpy::PyUntypedArrayMethods;
+        let d = self.normals.bind(py).shape().to_vec();
+        format!(
+            "Result(normals {}×{}, albedo: {}, confidence: {}, weights: {})",
+            d[1],
+            d[0],
+            self.albedo.is_some(),
+            self.confidence.is_some(),
+            self.weights.is_some()
+        )
+    }
+}
+
+fn gray(py: Python<'_>, g: GrayImage) -> Py<PyArray2<f32>> {
+    convert::gray_to_py(py, g).unbind()
+}
+
+fn mask_or_full(mask: Option<PyReadonlyArray2<'_, bool>>, s: &ImageStack) -> Mask {
+    mask.map(|m| convert::mask_from(&m))
+        .unwrap_or_else(|| Mask::full(s.width, s.height))
+}
+
+/// lookup(images, names, tables, mask=None, normalize=False) -> Result
+#[pyfunction]
+#[pyo3(signature = (images, names, tables, mask=None, normalize=false))]
+pub fn lookup(
+    py: Python<'_>,
+    images: PyReadonlyArray3<'_, f32>,
+    names: Vec<String>,
+    tables: Vec<PyRef<'_, Table>>,
+    mask: Option<PyReadonlyArray2<'_, bool>>,
+    normalize: bool,
+) -> PyResult<LookupResult> {
+    let stack = convert::stack_from(&images, names)?;
+    let mask = mask_or_full(mask, &stack);
+    let tables: Vec<lut::Table> = tables.iter().map(|t| t.cal.table.clone()).collect();
+    let opts = lut::Options {
+        normalize,
+        ..Default::default()
+    };
+    let out = crate::compute(py, move || {
+        lut::solve(&stack, &mask, &tables, &opts, &NoProgress)
+    })?;
+    Ok(LookupResult {
+        normals: convert::normals_to_py(py, out.normals).unbind(),
+        albedo: out.albedo.map(|a| gray(py, a)),
+        confidence: Some(gray(py, out.confidence)),
+        residual: gray(py, out.residual),
+        weights: out
+            .weights
+            .map(|w| w.into_iter().map(|g| gray(py, g)).collect()),
+    })
+}
+
+/// lambertian(images, lights, mask=None, robust=True) -> Result
+#[pyfunction]
+#[pyo3(signature = (images, lights, mask=None, robust=true))]
+pub fn lambertian(
+    py: Python<'_>,
+    images: PyReadonlyArray3<'_, f32>,
+    lights: PyReadonlyArray2<'_, f32>,
+    mask: Option<PyReadonlyArray2<'_, bool>>,
+    robust: bool,
+) -> PyResult<LookupResult> {
+    let stack = convert::stack_from(&images, Vec::new())?;
+    let lights = convert::lights_from(&lights)?;
+    let mask = mask_or_full(mask, &stack);
+    let opts = if robust {
+        lamb::Options::default()
+    } else {
+        lamb::Options::plain()
+    };
+    let out = crate::compute(py, move || lamb::solve(&stack, &mask, &lights, &opts))?;
+    Ok(LookupResult {
+        normals: convert::normals_to_py(py, out.normals).unbind(),
+        albedo: Some(gray(py, out.albedo)),
+        confidence: None,
+        residual: gray(py, out.residual),
+        weights: None,
+    })
+}
+
+/// lights_from_sphere(images, mask=None, kind="chrome", circle=None) -> (K, 3) lights
+#[pyfunction]
+#[pyo3(signature = (images, mask=None, kind="chrome", circle=None))]
+pub fn lights_from_sphere<'py>(
+    py: Python<'py>,
+    images: PyReadonlyArray3<'_, f32>,
+    mask: Option<PyReadonlyArray2<'_, bool>>,
+    kind: &str,
+    circle: Option<(f64, f64, f64)>,
+) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    let chrome = match kind {
+        "chrome" => true,
+        "matte" => false,
+        other => {
+            return Err(value_error(format!(
+                "kind={other:?}: use \"chrome\" (mirror sphere, lights from its highlights) or \"matte\""
+            )))
+        }
+    };
+    let stack = convert::stack_from(&images, Vec::new())?;
+    let mask = mask.map(|m| convert::mask_from(&m));
+    let lights = crate::compute(py, move || {
+        let det = sphere::detect(
+            &stack,
+            &sphere::DetectOptions {
+                circle: circle.map(|(cx, cy, radius)| sphere::Circle { cx, cy, radius }),
+                // a mirror sphere's rim barely shows: its silhouette mask is the better outline
+                mask_outline: chrome && mask.is_some(),
+                mask,
+                ..Default::default()
+            },
+        )?;
+        if chrome {
+            Ok(lightcal::from_chrome_sphere(&stack, &det.circle, &Default::default())?.0)
+        } else {
+            lightcal::from_matte_sphere(&stack, &det.circle, &Default::default())
+        }
+    })?;
+    Ok(convert::lights_to_py(py, &lights))
+}
+
+/// The integrator of a method name; "auto" (or None) chooses from the mask.
+fn method(name: Option<&str>, mask: &Mask) -> PyResult<integ::Method> {
+    match name {
+        None | Some("auto") => Ok(integ::choose_method(mask)),
+        Some(n) => integ::Method::from_name(n).map_err(crate::to_py),
+    }
+}
+
+/// integrate(normals, mask=None, method="auto", weights=None) -> (H, W) depth
+#[pyfunction]
+#[pyo3(signature = (normals, mask=None, method=None, weights=None))]
+pub fn integrate<'py>(
+    py: Python<'py>,
+    normals: PyReadonlyArray3<'_, f32>,
+    mask: Option<PyReadonlyArray2<'_, bool>>,
+    method: Option<&str>,
+    weights: Option<PyReadonlyArray2<'_, f32>>,
+) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    let n = convert::normals_from(&normals)?;
+    let mask = mask
+        .map(|m| convert::mask_from(&m))
+        .unwrap_or_else(|| Mask::full(n.width, n.height));
+    let opts = integ::Options {
+        method: self::method(method, &mask)?,
+        weights: weights.map(|w| convert::gray_from(&w)),
+        ..Default::default()
+    };
+    let out = crate::compute(py, move || integ::solve(&n, &mask, &opts))?;
+    Ok(convert::gray_to_py(py, out.depth))
+}
+
+type IterRow = (usize, f32, f32, f32);
+type InterreflectOut<'py> = (
+    Bound<'py, PyArray3<f32>>,
+    Bound<'py, PyArray2<f32>>,
+    Bound<'py, PyArray2<f32>>,
+    String,
+    String,
+    Vec<IterRow>,
+    usize,
+);
+
+/// interreflect(images, lights, mask, max_iter, tol, method) ->
+/// (normals, albedo, depth, summary, csv, [(t, depth_range, mean_albedo, change)], best)
+#[pyfunction]
+#[pyo3(signature = (images, lights, mask=None, max_iter=10, tol=0.01, method=None))]
+pub fn interreflect<'py>(
+    py: Python<'py>,
+    images: PyReadonlyArray3<'_, f32>,
+    lights: PyReadonlyArray2<'_, f32>,
+    mask: Option<PyReadonlyArray2<'_, bool>>,
+    max_iter: usize,
+    tol: f32,
+    method: Option<&str>,
+) -> PyResult<InterreflectOut<'py>> {
+    let stack = convert::stack_from(&images, Vec::new())?;
+    let lights = convert::lights_from(&lights)?;
+    let mask = mask_or_full(mask, &stack);
+    let mut opts = ir::NikOptions {
+        max_iter,
+        tol,
+        ..Default::default()
+    };
+    opts.integrate.method = self::method(method, &mask)?;
+    let out = crate::compute(py, move || {
+        ir::solve(&stack, &mask, &lights, &opts, &NoProgress)
+    })?;
+    let rows: Vec<IterRow> = out
+        .iterations
+        .iter()
+        .enumerate()
+        .map(|(t, it)| (t, it.depth_range, it.mean_albedo, it.relative_change))
+        .collect();
+    let (summary, csv, best) = (out.summary(), out.convergence_csv(), out.best);
+    let shape = out.iterations.into_iter().nth(best).map(|it| it.shape);
+    let shape = shape.ok_or_else(|| value_error("no iterate".into()))?;
+    Ok((
+        convert::normals_to_py(py, shape.normals),
+        convert::gray_to_py(py, shape.albedo),
+        convert::gray_to_py(py, shape.depth),
+        summary,
+        csv,
+        rows,
+        best,
+    ))
+}
+
+/// run(target, out, sphere=None, table=None, lambertian=False, lights=None, chrome=None,
+/// mask=None, image_scale=None, interreflections=False, method=None) -> run.json text
+#[pyfunction]
+#[pyo3(signature = (target, out, sphere=None, table=None, lambertian=false, lights=None, chrome=None, mask=None, image_scale=None, interreflections=false, method=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn run(
+    py: Python<'_>,
+    target: PathBuf,
+    out: PathBuf,
+    sphere: Option<PathBuf>,
+    table: Option<PyRef<'_, Table>>,
+    lambertian: bool,
+    lights: Option<PathBuf>,
+    chrome: Option<PathBuf>,
+    mask: Option<PathBuf>,
+    image_scale: Option<f32>,
+    interreflections: bool,
+    method: Option<&str>,
+) -> PyResult<String> {
+    let inputs = pipeline::Inputs {
+        target,
+        sphere,
+        calibration: table.map(|t| t.cal.clone()),
+        lambertian,
+        lights,
+        chrome,
+        mask,
+        image_scale,
+    };
+    let opts = pipeline::Options {
+        method: match method {
+            None | Some("auto") => None,
+            Some(n) => Some(integ::Method::from_name(n).map_err(crate::to_py)?),
+        },
+        interreflections,
+        ..Default::default()
+    };
+    let done = crate::compute(py, move || pipeline::run(&inputs, &out, &opts, &NoProgress))?;
+    Ok(done.json.to_string())
+}

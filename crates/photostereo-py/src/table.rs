@@ -1,0 +1,197 @@
+//! `Table` (a lookup table with the sphere detection it came from) and `calibrate`.
+
+use std::path::PathBuf;
+
+use numpy::{PyReadonlyArray2, PyReadonlyArray3};
+use photostereo::image::GrayImage;
+use photostereo::pipeline::Calibration;
+use photostereo::sphere::{Circle, DetectOptions, Detection};
+use photostereo::{io, lut, pipeline};
+use pyo3::prelude::*;
+use pyo3::types::PyBytes;
+
+use crate::convert;
+
+/// A lookup table: intensity tuple → normal, from a calibration sphere.
+#[pyclass(module = "photostereo._native", frozen)]
+#[derive(Clone)]
+pub struct Table {
+    pub cal: Calibration,
+}
+
+#[pymethods]
+impl Table {
+    /// The sphere's circle (cx, cy, r) in pixels: cx along columns, cy along rows,
+    /// pixel (r, c) centred at (c + 0.5, r + 0.5).
+    #[getter]
+    fn circle(&self) -> (f64, f64, f64) {
+        let c = self.cal.table.circle;
+        (c.cx, c.cy, c.radius)
+    }
+
+    /// Number of lights K.
+    #[getter]
+    fn k(&self) -> usize {
+        self.cal.table.k
+    }
+
+    /// Image names the table was built from, in light order.
+    #[getter]
+    fn names(&self) -> Vec<String> {
+        self.cal.table.names.clone()
+    }
+
+    /// Free-text material name.
+    #[getter]
+    fn material(&self) -> String {
+        self.cal.table.material.clone()
+    }
+
+    /// Number of table entries (sphere pixels used).
+    fn __len__(&self) -> usize {
+        self.cal.table.entries.len()
+    }
+
+    /// RMS distance of the edge points to the fitted circle (px); None for a loaded table.
+    #[getter]
+    fn fit_rms(&self) -> Option<f64> {
+        self.cal.detection.as_ref().map(|d| d.rms_residual_px)
+    }
+
+    /// lookup(target, *, mask=None, normalize=False) -> Result: normals of `target` (a
+    /// Dataset, a dataset directory or a (K, H, W) array under the same lights) by this
+    /// table; see `photostereo.lookup`.
+    #[pyo3(signature = (target, *, mask=None, normalize=false))]
+    fn lookup<'py>(
+        slf: &Bound<'py, Self>,
+        py: Python<'py>,
+        target: Bound<'py, PyAny>,
+        mask: Option<Bound<'py, PyAny>>,
+        normalize: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let kwargs = pyo3::types::PyDict::new(py);
+        kwargs.set_item("mask", mask)?;
+        kwargs.set_item("normalize", normalize)?;
+        let tables = pyo3::types::PyList::new(py, [slf])?;
+        py.import("photostereo")?
+            .getattr("lookup")?
+            .call((target, tables), Some(&kwargs))
+    }
+
+    /// Write the table file (the `.lut` format of `photostereo calibrate`), atomically.
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let t = &self.cal.table;
+        crate::compute(py, || io::write_table(&path, t))
+    }
+
+    /// Read a table file written by `save` or `photostereo calibrate`.
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Table> {
+        let table = crate::compute(py, move || io::read_table(&path))?;
+        Ok(Table {
+            cal: Calibration {
+                table,
+                detection: None,
+            },
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        let t = &self.cal.table;
+        format!(
+            "Table(K={}, {} entries, circle=({:.2}, {:.2}, {:.2}), material={:?})",
+            t.k,
+            t.entries.len(),
+            t.circle.cx,
+            t.circle.cy,
+            t.circle.radius,
+            t.material
+        )
+    }
+
+    /// Pickling (for Dask): the table bytes and the detection.
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let me = slf.get();
+        let bytes = PyBytes::new(py, &me.cal.table.to_bytes());
+        let det = me.cal.detection.as_ref().map(|d| {
+            (
+                (d.circle.cx, d.circle.cy, d.circle.radius),
+                d.rms_residual_px,
+                d.inliers,
+                d.edge_points,
+                (d.max_image.width, d.max_image.height),
+                d.max_image.data.clone(),
+            )
+        });
+        let ctor = py
+            .import("photostereo._native")?
+            .getattr("Table")?
+            .getattr("_from_state")?;
+        let args = (bytes, det).into_pyobject(py)?.into_any();
+        Ok((ctor, args))
+    }
+
+    /// Rebuild a table pickled by `__reduce__`.
+    #[staticmethod]
+    #[allow(clippy::type_complexity)]
+    fn _from_state(
+        py: Python<'_>,
+        bytes: Vec<u8>,
+        det: Option<((f64, f64, f64), f64, usize, usize, (usize, usize), Vec<f32>)>,
+    ) -> PyResult<Table> {
+        let table = crate::compute(py, move || lut::Table::from_bytes(&bytes))?;
+        let detection = det.map(
+            |((cx, cy, r), rms, inliers, edges, (w, h), data)| Detection {
+                circle: Circle { cx, cy, radius: r },
+                rms_residual_px: rms,
+                inliers,
+                edge_points: edges,
+                max_image: GrayImage {
+                    width: w,
+                    height: h,
+                    data,
+                },
+            },
+        );
+        Ok(Table {
+            cal: Calibration { table, detection },
+        })
+    }
+}
+
+/// calibrate(images, names, mask, circle, sphere_region, rim, material, smooth) -> Table
+#[pyfunction]
+#[pyo3(signature = (images, names, mask=None, circle=None, sphere_region=None, rim=2.0, material=String::new(), smooth=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn calibrate(
+    py: Python<'_>,
+    images: PyReadonlyArray3<'_, f32>,
+    names: Vec<String>,
+    mask: Option<PyReadonlyArray2<'_, bool>>,
+    circle: Option<(f64, f64, f64)>,
+    sphere_region: Option<(usize, usize, usize, usize)>,
+    rim: f64,
+    material: String,
+    smooth: Option<f64>,
+) -> PyResult<Table> {
+    let stack = convert::stack_from(&images, names)?;
+    let mask = mask.map(|m| convert::mask_from(&m));
+    let opts = pipeline::Options {
+        detect: DetectOptions {
+            circle: circle.map(|(cx, cy, radius)| Circle { cx, cy, radius }),
+            region: sphere_region,
+            ..DetectOptions::default()
+        },
+        build: lut::BuildOptions {
+            rim,
+            material,
+            smooth,
+        },
+        ..Default::default()
+    };
+    let cal = crate::compute(py, move || pipeline::calibrate(&stack, mask, &opts))?;
+    Ok(Table { cal })
+}

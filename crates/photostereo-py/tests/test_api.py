@@ -1,0 +1,253 @@
+"""The Python API on synthetic data: shapes, dtypes, accuracy against ground truth,
+equality with the CLI, every error type."""
+
+from __future__ import annotations
+
+import json
+import pickle
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import photostereo as ps
+
+
+def angular_error_deg(n, gt, mask):
+    d = np.clip(np.sum(n[mask] * gt[mask], axis=1), -1.0, 1.0)
+    return np.degrees(np.arccos(d))
+
+
+def test_load_dataset_shapes(data):
+    ds = ps.load_dataset(data["vase"])
+    assert ds.images.shape == (12, 96, 96) and ds.images.dtype == np.float32
+    assert ds.lights.shape == (12, 3) and ds.lights.dtype == np.float32
+    np.testing.assert_allclose(np.linalg.norm(ds.lights, axis=1), 1.0, atol=1e-5)
+    assert ds.mask.shape == (96, 96) and ds.mask.dtype == np.bool_
+    assert len(ds.names) == 12 and len(ds) == 12
+    # linear luminance with the light intensities divided out: >= 0, not capped at 1
+    assert np.isfinite(ds.images).all() and ds.images.min() >= 0.0 and ds.images.max() > 0.1
+    # a Dataset built from arrays reads back the same images
+    again = ps.Dataset(np.ascontiguousarray(ds.images), ds.lights, ds.mask, ds.names)
+    np.testing.assert_array_equal(again.images, ds.images)
+
+
+def test_calibrate_circle_and_lookup_accuracy(data):
+    table = ps.calibrate(data["sphere"])
+    cx, cy, r = table.circle
+    # rendered on an 84 x 84 image: centre (42, 42), radius 40 px; measured within
+    # 0.014, 0.010, 0.031 px
+    assert abs(cx - 42) < 0.05 and abs(cy - 42) < 0.05 and abs(r - 40) < 0.1, table.circle
+    res = table.lookup(data["vase"])
+    assert res.normals.shape == (96, 96, 3) and res.normals.dtype == np.float32
+    assert res.confidence.shape == (96, 96) and res.albedo is None
+    gt = np.load(data["vase"] / "normal_gt.npy")
+    mask = ps.load_dataset(data["vase"]).mask
+    err = angular_error_deg(res.normals, gt, mask)
+    print(f"vase lookup: mean angular error {err.mean():.3f} deg")
+    assert err.mean() < 0.9  # measured 0.295 deg
+
+
+def test_table_save_load_pickle(data, tmp_path):
+    table = ps.calibrate(data["sphere"], material="plastic")
+    table.save(tmp_path / "s.lut")
+    back = ps.Table.load(tmp_path / "s.lut")
+    assert back.circle == table.circle and back.material == "plastic" and len(back) == len(table)
+    a = table.lookup(data["blob"]).normals
+    np.testing.assert_array_equal(back.lookup(data["blob"]).normals, a)
+    un = pickle.loads(pickle.dumps(table))
+    assert un.fit_rms == table.fit_rms
+    np.testing.assert_array_equal(un.lookup(data["blob"]).normals, a)
+
+
+def test_lookup_equals_cli(data, cli, tmp_path):
+    """calibrate + lookup from Python equal `photostereo calibrate` + `normals --lut`."""
+    lut = tmp_path / "t.lut"
+    cli("calibrate", data["sphere"], "--mask", data["sphere"] / "mask.png", "-o", lut)
+    cli("normals", data["blob"], "--lut", lut, "-o", tmp_path / "n")
+    want = np.load(tmp_path / "n" / "normals.npy")
+    got = ps.calibrate(data["sphere"]).lookup(data["blob"]).normals
+    assert np.abs(got - want).max() <= 1e-4
+    # the same table file read by Python
+    got2 = ps.Table.load(lut).lookup(data["blob"]).normals
+    assert np.abs(got2 - want).max() <= 1e-4
+
+
+def test_lookup_from_arrays(data):
+    ds = ps.load_dataset(data["blob"])
+    table = ps.calibrate(data["sphere"])
+    a = ps.lookup(ds, [table]).normals
+    # float64 (K, H, W) array, no names: the same normals
+    b = ps.lookup(ds.images.astype(np.float64), [table], mask=ds.mask).normals
+    np.testing.assert_array_equal(a, b)
+
+
+def test_mixture_two_tables(data):
+    shiny = ps.calibrate(data["sphere"])
+    matte = ps.calibrate(data["matte_sphere"])
+    res = ps.lookup(data["blob"], tables=[shiny, matte])
+    assert res.weights is not None and len(res.weights) == 2
+    mask = ps.load_dataset(data["blob"]).mask
+    a, b = (w[mask] for w in res.weights)
+    # the blob is all shiny plastic: the shiny weight dominates
+    print(f"mixture: median weights shiny {np.median(a):.3f}, matte {np.median(b):.3f}")
+    assert np.median(a) > 0.96 and np.median(b) < 0.025  # measured 0.988, 0.008
+    gt = np.load(data["blob"] / "normal_gt.npy")
+    err = angular_error_deg(res.normals, gt, mask).mean()
+    print(f"mixture: mean angular error {err:.3f} deg")
+    assert err < 1.5  # measured 0.572 deg
+
+
+def test_lambertian_accuracy_and_cli(data, cli, tmp_path):
+    ds = ps.load_dataset(data["matte"])
+    res = ps.lambertian(ds.images, ds.lights, ds.mask)
+    gt = np.load(data["matte"] / "normal_gt.npy")
+    err = angular_error_deg(res.normals, gt, ds.mask)
+    print(f"Lambertian: mean angular error {err.mean():.4f} deg")
+    assert err.mean() < 0.01  # measured 0.002 deg (16-bit images)
+    assert res.albedo.shape == (96, 96) and res.confidence is None
+    cli("normals", data["matte"], "--lambertian", "-o", tmp_path / "n")
+    want = np.load(tmp_path / "n" / "normals.npy")
+    assert np.abs(res.normals - want).max() <= 1e-4
+
+
+def test_lights_from_matte_sphere(data):
+    ds = ps.load_dataset(data["matte_sphere"])
+    lights = ps.lights_from_sphere(ds, kind="matte")
+    assert lights.shape == (12, 3) and lights.dtype == np.float32
+    cos = np.clip(np.sum(lights * ds.lights, axis=1), -1, 1)
+    worst = np.degrees(np.arccos(cos)).max()
+    print(f"matte sphere lights: worst error {worst:.3f} deg")
+    assert worst < 1.0  # measured 0.321 deg
+
+
+def test_integrate_ground_truth(data):
+    gt_n = np.load(data["vase"] / "normal_gt.npy")
+    gt_z = np.load(data["vase"] / "depth_gt.npy")
+    mask = ps.load_dataset(data["vase"]).mask
+    z = ps.integrate(gt_n, mask)
+    assert z.shape == (96, 96) and z.dtype == np.float32
+    assert np.isnan(z[~mask]).all() and np.isfinite(z[mask]).all()
+    e = z[mask] - gt_z[mask]
+    rmse = np.sqrt(np.mean((e - e.mean()) ** 2))
+    rng = gt_z[mask].max() - gt_z[mask].min()
+    print(f"integrate lsq: RMSE {rmse:.3f} px of range {rng:.1f}")
+    assert rmse < 0.8  # measured 0.270 px (range 30.9 px)
+    # a full rectangle: DCT; named methods work too
+    for m in ("dct", "fc", "path", "lsq"):
+        assert ps.integrate(gt_n, mask, method=m).shape == (96, 96)
+
+
+def test_interreflect(data):
+    out = ps.interreflect(data["bowl"], max_iter=2)
+    assert out["depth"].shape == (40, 40) and out["normals"].shape == (40, 40, 3)
+    assert len(out["iterations"]) >= 2 and isinstance(out["summary"], str)
+
+
+def test_run_equals_cli(data, cli, tmp_path):
+    got = ps.run(data["blob"], tmp_path / "py", sphere=data["sphere"])
+    cli("run", data["blob"], "--sphere", data["sphere"], "-o", tmp_path / "cli")
+    want = json.loads((tmp_path / "cli" / "run.json").read_text())
+    assert got["figures"] == want["figures"]
+    assert got == json.loads((tmp_path / "py" / "run.json").read_text())
+    for f in ("normals.npy", "depth.npy", "confidence.npy"):
+        a, b = np.load(tmp_path / "py" / f), np.load(tmp_path / "cli" / f)
+        np.testing.assert_array_equal(a, b)
+    for f in ("report.html", "mesh.ply", "normals.png", "sphere_overlay.png"):
+        assert (tmp_path / "py" / f).is_file()
+    # a Table given instead of the sphere directory: the same normals and figures
+    again = ps.run(data["blob"], tmp_path / "tab", sphere=ps.calibrate(data["sphere"]))
+    assert again["figures"] == got["figures"]
+    np.testing.assert_array_equal(
+        np.load(tmp_path / "tab" / "normals.npy"), np.load(tmp_path / "py" / "normals.npy")
+    )
+
+
+def test_run_lambertian(data, tmp_path):
+    r = ps.run(data["matte"], tmp_path / "o", lambertian=True)
+    assert r["angular_error_deg"]["mean"] < 0.01  # measured 0.002 deg
+    assert (tmp_path / "o" / "albedo.npy").is_file()
+
+
+def test_gil_released(data):
+    """Python threads run while the library computes."""
+    n = np.load(data["vase"] / "normal_gt.npy")
+    big = np.tile(n, (4, 4, 1))  # 384 x 384
+    mask = np.ones(big.shape[:2], bool)
+    mask[:8] = False  # not a full rectangle: masked least squares (the slow one)
+    done = threading.Event()
+    ticks = 0
+
+    def work():
+        for _ in range(3):
+            ps.integrate(big, mask)
+        done.set()
+
+    t = threading.Thread(target=work)
+    t.start()
+    while not done.is_set():
+        ticks += 1
+    t.join()
+    # with the GIL held during the computation this loop would stall for the whole call
+    print(f"GIL: {ticks} loop turns during the computation")
+    assert ticks > 10_000, ticks
+
+
+# ---- errors: the exception type of each kind, with the library's message -------------
+
+
+def test_missing_path_is_file_not_found(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nowhere"):
+        ps.load_dataset(tmp_path / "nowhere")
+    with pytest.raises(FileNotFoundError, match="none.lut"):
+        ps.Table.load(tmp_path / "none.lut")
+    with pytest.raises(FileNotFoundError):
+        ps.run(tmp_path / "nowhere", tmp_path / "o", lambertian=True)
+
+
+def test_file_problem_is_oserror(data, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    table = ps.calibrate(data["sphere"])
+    with pytest.raises(OSError) as e:
+        table.save(blocker / "t.lut")
+    assert not isinstance(e.value, FileNotFoundError) or "file" in str(e.value)
+    with pytest.raises(OSError):
+        ps.run(data["matte"], blocker / "out", lambertian=True)
+
+
+def test_bad_data_is_value_error(data, tmp_path):
+    bad = tmp_path / "bad.lut"
+    bad.write_bytes(b"not a table at all")
+    with pytest.raises(ValueError, match="bad.lut"):
+        ps.Table.load(bad)
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "001.png").write_bytes(b"\x89PNG garbage")
+    with pytest.raises(ValueError, match="001.png"):
+        ps.load_dataset(broken)
+    table = ps.calibrate(data["sphere"])
+    with pytest.raises(ValueError, match="lights"):
+        table.lookup(np.zeros((5, 20, 20), np.float32))  # 5 lights, table has 12
+    with pytest.raises(ValueError):
+        ps.lookup(np.zeros((20, 20), np.float32), [table])  # not (K, H, W)
+    with pytest.raises(ValueError, match="method"):
+        ps.integrate(np.zeros((8, 8, 3), np.float32), method="magic")
+    with pytest.raises(ValueError, match="camera"):
+        ps.integrate(np.zeros((8, 8, 3), np.float32), camera="pinhole")
+    with pytest.raises(ValueError, match="kind"):
+        ps.lights_from_sphere(data["matte_sphere"], kind="glass")
+    with pytest.raises(ValueError, match="sphere"):
+        ps.calibrate(np.zeros((12, 40, 40), np.float32))  # black images: no sphere
+    with pytest.raises(ValueError, match="mask"):
+        ps.lambertian(data["matte"], mask=np.zeros((96, 96), bool))  # empty mask
+    with pytest.raises(ValueError, match="normals"):
+        ps.run(data["blob"], tmp_path / "o")  # neither sphere nor lambertian
+
+
+def test_help_reads_like_cli():
+    doc = ps.calibrate.__doc__
+    for word in ("circle", "sphere_region", "rim", "material", "Table"):
+        assert word in doc
+    assert Path(ps.__file__).with_name("_native.pyi").is_file()
