@@ -16,7 +16,8 @@
 //!   offsets at the sector's angle), of F convolved with a Gaussian of standard
 //!   deviation σ (the optics' blur; σ → 0 is a perfect area-sampling camera). A
 //!   point-sampled render (each pixel the scene at its centre, a staircase silhouette)
-//!   is the same with all offsets 0; the footprint that fits better is used.
+//!   is the same with all offsets 0; it is chosen when it fits better with a blur
+//!   under 0.1 px (otherwise the two footprints differ by little more than σ).
 //! * **Fit**: the rim is cut into angular sectors (about 6 px of arc each); in each,
 //!   the five linear coefficients come from least squares and the rim's offset e
 //!   (ρ = R + e) minimises the residual (scan, then golden section). σ is shared by
@@ -79,6 +80,8 @@ const E_MAX: f64 = 2.0;
 const INSIDE_MAX_PX: f64 = 10.0;
 /// Band outside the rim used (pixels).
 const OUT_PX: f64 = 5.0;
+/// A point-sampled footprint is chosen only with a blur below this (pixels).
+const POINT_MAX_BLUR_PX: f64 = 0.1;
 /// Sector points farther than this from the circle are outliers (pixels).
 const SECTOR_TOL_PX: f64 = 0.5;
 
@@ -98,10 +101,19 @@ pub(crate) fn refine(img: &View, init: Circle, linear: bool) -> Option<RimFit> {
             // render), whichever fits better at its best blur
             let fits = [false, true]
                 .map(|point| Band::new(img, &circle, point).map(|b| (b.best_sigma(linear), point)));
-            fits.into_iter()
-                .flatten()
-                .min_by(|a, b| a.0 .1.total_cmp(&b.0 .1))
-                .map_or((0.0, false), |((s, _), p)| (s, p))
+            // a point-sampled render has no blur at all; with blur the two footprints
+            // differ by little more than σ, so the area (a camera) is kept
+            match fits {
+                [Some(((sa, ca), _)), Some(((sp, cp), _))] => {
+                    if sp < POINT_MAX_BLUR_PX && cp < ca {
+                        (sp, true)
+                    } else {
+                        (sa, false)
+                    }
+                }
+                [Some(((sa, _), _)), None] => (sa, false),
+                _ => (0.0, false),
+            }
         });
         let band = Band::new(img, &circle, point)?;
         let mut fit = band.fit_circle(sigma, linear)?;
