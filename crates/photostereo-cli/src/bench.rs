@@ -105,7 +105,7 @@ pub const ROWS: &[Row] = &[
     Row {
         name: "lsq",
         vs_floor: false,
-        what: "masked sparse-Cholesky lsq, disk in lsq-size²",
+        what: "masked lsq (multigrid CG), disk in lsq-size²",
         prepare: |a| integration_job(a.lsq_size, Method::Lsq, true),
     },
     Row {

@@ -3,7 +3,7 @@
 use crate::progress::Bar;
 use crate::Global;
 use anyhow::Context;
-use photostereo::integrate::{choose_method, solve_with_progress, Method, Options};
+use photostereo::integrate::{choose_method, solve_with_progress, Camera, Method, Options};
 use photostereo::{io, mesh, Mask};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -14,18 +14,23 @@ use std::time::Instant;
   photostereo integrate normals.npy --mask mask.png -o depth.npy --mesh shape.ply
   photostereo integrate normals.npy --method dct -o depth.npy
   photostereo integrate normals.npy --mask mask.png --weights confidence.npy -o depth.npy --mesh shape.obj
+  photostereo integrate normals.npy --mask mask.png --method bini --camera K.txt -o depth.npy --mesh shape.ply
 
 Writes DEPTH.npy (float32, H x W, pixel units, larger = closer, NaN outside the mask) and a
 false-colour DEPTH.png next to it. Methods: path (two cumulative paths, reports their
 disagreement), fc (Frankot-Chellappa, periodic), fc-reflect (FC on the mirrored field), dct
-(Poisson with Neumann boundary), lsq (masked sparse least squares; holes, several parts).")]
+(Poisson with Neumann boundary), lsq (masked least squares by multigrid; holes, several
+parts), bini (bilateral normal integration: keeps depth discontinuities, the mesh is cut there).
+With --camera K.txt or --focal F the integration is perspective (lsq or bini) and DEPTH.npy is the
+distance along the optical axis (positive, larger = farther, up to scale: the geometric mean
+over each part is the focal length in pixels).")]
 pub struct Args {
     /// Normal map: float32 .npy of shape (H, W, 3), camera frame (x right, y up, z to camera).
     pub normals: PathBuf,
     /// Object mask (PNG or .npy); default: the whole image.
     #[arg(long)]
     pub mask: Option<PathBuf>,
-    /// path, fc, fc-reflect, dct or lsq (default: lsq with a mask, dct without).
+    /// path, fc, fc-reflect, dct, lsq or bini (default: lsq with a mask, dct without).
     #[arg(long)]
     pub method: Option<String>,
     /// Output depth map (.npy); a .png preview is written next to it.
@@ -43,6 +48,30 @@ pub struct Args {
     /// Smallest accepted n_z; normals below it (or NaN) are clamped and counted.
     #[arg(long, default_value_t = 0.05)]
     pub min_nz: f32,
+    /// Pinhole intrinsics: a text file with the 3x3 matrix [[fx 0 cx] [0 fy cy] [0 0 1]]
+    /// (pixels; pixel centres at integers, as DiLiGenT's K.txt). Perspective integration.
+    #[arg(long, conflicts_with = "focal")]
+    pub camera: Option<PathBuf>,
+    /// Focal length in pixels with the principal point at the image centre (perspective).
+    #[arg(long)]
+    pub focal: Option<f64>,
+    /// bini: sharpness k of the sigmoid weights (larger breaks the surface more easily).
+    #[arg(long, default_value_t = 2.0)]
+    pub bini_k: f32,
+}
+
+fn camera(args: &Args, width: usize, height: usize) -> anyhow::Result<Option<Camera>> {
+    if let Some(path) = &args.camera {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("reading the camera matrix {}", path.display()))?;
+        return Ok(Some(Camera::from_text(&text, &path.display().to_string())?));
+    }
+    match args.focal {
+        Some(f) => Ok(Some(Camera::centred(f, width, height).with_context(
+            || format!("--focal {f}: give the focal length in pixels (a positive number)"),
+        )?)),
+        None => Ok(None),
+    }
 }
 
 fn mesh_kind(path: &Path) -> anyhow::Result<&'static str> {
@@ -82,16 +111,26 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             args.mask.as_deref().unwrap_or(Path::new("")).display()
         ),
     )?;
-    let method = match &args.method {
+    let mut method = match &args.method {
         Some(name) => Method::from_name(name)?,
         None => choose_method(&mask),
     };
+    if let Method::Bilateral { k, .. } = &mut method {
+        anyhow::ensure!(
+            args.bini_k.is_finite() && args.bini_k > 0.0,
+            "--bini-k must be a positive number, got {}",
+            args.bini_k
+        );
+        *k = args.bini_k;
+    }
+    let camera = camera(&args, normals.width, normals.height)?;
     let weights = args.weights.as_deref().map(io::read_gray_npy).transpose()?;
     let albedo = args.albedo.as_deref().map(io::read_gray_npy).transpose()?;
     let opts = Options {
         method,
         weights,
         min_nz: args.min_nz,
+        camera,
     };
     let start = Instant::now();
     let out = solve_with_progress(&normals, &mask, &opts, &Bar::new(global.quiet))
@@ -112,11 +151,15 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     }
     // Build everything before writing anything.
     let built_mesh = match &args.mesh {
-        Some(_) => Some(mesh::from_depth(
+        Some(_) => Some(mesh::from_depth_with(
             &out.depth,
             &mask,
             Some(&normals),
             albedo.as_ref(),
+            &mesh::MeshOptions {
+                camera: out.camera.as_ref(),
+                cuts: out.discontinuities.as_ref(),
+            },
         )?),
         None => None,
     };
@@ -145,6 +188,20 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             "gradient residual (RMS per pixel step): {:.4}",
             out.info.residual
         );
+        if let Method::Bilateral { .. } = method {
+            println!(
+                "bini: {} reweighting iterations ({} CG), {} discontinuity edges",
+                out.info.iterations,
+                out.info.inner_iterations,
+                out.discontinuities.as_ref().map_or(0, |d| d.count())
+            );
+        }
+        if let Some(cam) = &out.camera {
+            println!(
+                "perspective: fx {:.1}, fy {:.1}, cx {:.1}, cy {:.1}; depth = distance along the optical axis",
+                cam.fx, cam.fy, cam.cx, cam.cy
+            );
+        }
         if let Some(d) = out.path_disagreement {
             println!("path disagreement (RMS, pixels): {d:.4}");
         }

@@ -7,6 +7,7 @@ use anyhow::Context;
 use photostereo::io;
 use photostereo::lambertian;
 use photostereo::lut::{self, Method, Table};
+use photostereo::spatial;
 use photostereo::{GrayImage, Mask, NormalMap};
 use std::path::{Path, PathBuf};
 
@@ -21,7 +22,10 @@ photostereo normals data/target --lambertian --lights lights.txt -o out\n\n\
 Writes normals.npy (float32 H×W×3), normals.png, confidence.npy (lookup: 1 = perfect match, \
 low where lights are shadowed or the match is poor), residual.npy, albedo.npy (--normalize or \
 --lambertian) and weights_1.npy, weights_2.npy, weights_sigma.npy (two tables: the mix of \
-each material and its standard error; the confidence is low where the mix is undetermined).")]
+each material and its standard error; the confidence is low where the mix is undetermined), \
+normals_sigma.npy/png (angular standard error of each normal from its own data, degrees, from \
+the noise measured on the target) and own_share.npy (spatial stage: 1 = the pixel's own data \
+decided its normal, 0 = its neighbours did; the confidence is multiplied by it).")]
 pub struct Args {
     /// Directory with the target's images (DiLiGenT layout).
     #[arg(value_name = "TARGET_DIR")]
@@ -52,6 +56,10 @@ pub struct Args {
     /// TARGET_DIR/light_directions.txt.
     #[arg(long, value_name = "FILE", requires = "lambertian")]
     lights: Option<PathBuf>,
+    /// Keep every pixel's own normal: no spatial stage (by default pixels whose data say
+    /// little about their normal take it from their neighbours; see `photostereo::spatial`).
+    #[arg(long)]
+    no_spatial: bool,
     /// Object mask (PNG/TIFF/.npy, non-zero = object); default TARGET_DIR/mask.png,
     /// else the whole image.
     #[arg(long, value_name = "MASK")]
@@ -61,10 +69,13 @@ pub struct Args {
     output: PathBuf,
 }
 
+/// Named gray images written as NAME.npy.
+type Grays = Vec<(&'static str, GrayImage)>;
+
 /// What a run produced, written only once everything is computed.
 struct Results {
     normals: NormalMap,
-    grays: Vec<(&'static str, GrayImage)>,
+    grays: Grays,
 }
 
 /// Run the subcommand.
@@ -132,7 +143,8 @@ fn lookup_normals(
             s.pixels, s.shadowed_pixels, s.low_confidence_pixels, s.mean_residual
         );
     }
-    let mut grays = vec![("confidence", out.confidence), ("residual", out.residual)];
+    let (normals, confidence, mut grays) = spatial_stage(args, stack, mask, &tables, &out, global)?;
+    grays.extend([("confidence", confidence), ("residual", out.residual)]);
     if let Some(a) = out.albedo {
         grays.push(("albedo", a));
     }
@@ -151,10 +163,71 @@ fn lookup_normals(
     if let Some(sigma) = out.weight_sigma {
         grays.push(("weights_sigma", sigma));
     }
-    Ok(Results {
-        normals: out.normals,
-        grays,
-    })
+    Ok(Results { normals, grays })
+}
+
+/// The noise estimate, the normals' standard errors and (unless `--no-spatial`, and with
+/// one table) the spatial stage: (normals, confidence, extra images).
+fn spatial_stage(
+    args: &Args,
+    stack: &photostereo::ImageStack,
+    mask: &Mask,
+    tables: &[Table],
+    out: &lut::Output,
+    global: Global,
+) -> anyhow::Result<(NormalMap, GrayImage, Grays)> {
+    if tables.len() != 1 {
+        // mixtures: the evidence of a pixel depends on its weights too (not modelled)
+        return Ok((out.normals.clone(), out.confidence.clone(), Vec::new()));
+    }
+    let noise = spatial::NoiseModel::estimate(stack, mask);
+    let opts = spatial::Options::default();
+    let say = |s: String| {
+        if !global.quiet {
+            println!("{s}");
+        }
+    };
+    say(format!(
+        "noise measured on the target: σ = √({:.3e}² + {:.3e}·I)",
+        noise.read, noise.gain
+    ));
+    if args.no_spatial {
+        let ev = spatial::info::from_table(
+            stack,
+            mask,
+            &tables[0],
+            &out.normals,
+            out.albedo.as_ref(),
+            &noise,
+            opts.shadow_level,
+        );
+        let sigma = ev.sigma_deg(mask);
+        say(format!(
+            "angular standard error: mean {:.2}° (normals_sigma.npy)",
+            spatial::mean_in(&sigma, mask)
+        ));
+        return Ok((
+            out.normals.clone(),
+            out.confidence.clone(),
+            vec![("normals_sigma", sigma)],
+        ));
+    }
+    let sp = spatial::solve_table(stack, mask, &tables[0], out, &noise, &opts)
+        .context("spatial stage after the lookup")?;
+    say(format!(
+        "spatial stage: {} of {} pixels decided by their neighbours, {} discontinuity cuts; \
+         angular standard error of the own data: mean {:.2}° (normals_sigma.npy)",
+        sp.stats.decided_by_neighbours,
+        sp.stats.pixels,
+        sp.stats.cut_triples,
+        sp.stats.mean_sigma_deg
+    ));
+    let confidence = spatial::confidence_after(&out.confidence, &sp.own_share);
+    Ok((
+        sp.normals,
+        confidence,
+        vec![("normals_sigma", sp.sigma_deg), ("own_share", sp.own_share)],
+    ))
 }
 
 fn lambertian_normals(
@@ -180,10 +253,35 @@ fn lambertian_normals(
     if !global.quiet {
         println!("Lambertian least squares on {} pixels", mask.count());
     }
-    Ok(Results {
-        normals: out.normals,
-        grays: vec![("albedo", out.albedo), ("residual", out.residual)],
-    })
+    let noise = spatial::NoiseModel::estimate(&data.stack, mask);
+    let ev = spatial::info::from_lambertian(
+        &data.stack,
+        mask,
+        lights,
+        &out.normals,
+        &out.albedo,
+        &noise,
+    );
+    let (normals, sigma, extra) = if !args.no_spatial {
+        let sp = spatial::solve(&ev, mask, &spatial::Options::default())
+            .context("spatial stage after the Lambertian solve")?;
+        if !global.quiet {
+            println!(
+                "spatial stage: {} of {} pixels decided by their neighbours",
+                sp.stats.decided_by_neighbours, sp.stats.pixels
+            );
+        }
+        (sp.normals, sp.sigma_deg, vec![("own_share", sp.own_share)])
+    } else {
+        (out.normals, ev.sigma_deg(mask), Vec::new())
+    };
+    let mut grays = vec![
+        ("albedo", out.albedo),
+        ("residual", out.residual),
+        ("normals_sigma", sigma),
+    ];
+    grays.extend(extra);
+    Ok(Results { normals, grays })
 }
 
 fn write_results(dir: &Path, r: &Results, mask: &Mask) -> anyhow::Result<()> {
@@ -192,6 +290,15 @@ fn write_results(dir: &Path, r: &Results, mask: &Mask) -> anyhow::Result<()> {
     io::write_normals_png(&dir.join("normals.png"), &r.normals, Some(mask))?;
     for (name, img) in &r.grays {
         io::write_gray_npy(&dir.join(format!("{name}.npy")), img)?;
+        if *name == "normals_sigma" {
+            // false colour over 0–10°
+            io::write_colormap_png(
+                &dir.join("normals_sigma.png"),
+                img,
+                Some(mask),
+                Some((0.0, 10.0)),
+            )?;
+        }
     }
     Ok(())
 }

@@ -53,6 +53,7 @@ pub mod mesh;
 pub mod pipeline;
 pub mod progress;
 pub mod report;
+pub mod spatial;
 pub mod sphere;
 pub mod synth;
 

@@ -10,10 +10,17 @@
 //! vector), otherwise from central differences of the depth. An albedo map becomes a
 //! grey vertex colour, scaled so that the largest albedo inside the mask is 255.
 //!
+//! With [`MeshOptions::camera`] the depth is a distance along the optical axis and
+//! each vertex is back-projected through the pinhole ([`Camera::back_project`]: the
+//! same camera frame, in the depth's units). With [`MeshOptions::cuts`] (the
+//! discontinuities found by bilateral integration) no triangle spans a cut edge, so
+//! depth jumps stay open instead of being bridged by long thin triangles.
+//!
 //! Writers take any `std::io::Write`; the library opens no files.
 
 use crate::error::{Error, Result};
 use crate::image::{normalize, pixel_to_xy, DepthMap, GrayImage, Mask, NormalMap};
+use crate::integrate::{Camera, Discontinuities};
 use std::io::Write;
 
 /// An indexed triangle mesh.
@@ -43,6 +50,16 @@ fn check_size(what: &str, w: usize, h: usize, depth: &DepthMap) -> Result<()> {
     Ok(())
 }
 
+/// Options of [`from_depth_with`].
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MeshOptions<'a> {
+    /// Back-project the vertices through this camera (the depth is then the distance
+    /// along the optical axis); `None`: orthographic, pixel units.
+    pub camera: Option<&'a Camera>,
+    /// Edges that no triangle may span (depth discontinuities).
+    pub cuts: Option<&'a Discontinuities>,
+}
+
 /// Build a mesh from a depth map and its mask (see the module documentation).
 pub fn from_depth(
     depth: &DepthMap,
@@ -50,7 +67,21 @@ pub fn from_depth(
     normals: Option<&NormalMap>,
     albedo: Option<&GrayImage>,
 ) -> Result<Mesh> {
+    from_depth_with(depth, mask, normals, albedo, &MeshOptions::default())
+}
+
+/// [`from_depth`] with a camera and cut edges.
+pub fn from_depth_with(
+    depth: &DepthMap,
+    mask: &Mask,
+    normals: Option<&NormalMap>,
+    albedo: Option<&GrayImage>,
+    opts: &MeshOptions,
+) -> Result<Mesh> {
     let (w, h) = (depth.width, depth.height);
+    if let Some(cuts) = opts.cuts {
+        check_size("mesh cuts", cuts.width, cuts.height, depth)?;
+    }
     check_size("mesh mask", mask.width, mask.height, depth)?;
     if let Some(n) = normals {
         check_size("mesh normal map", n.width, n.height, depth)?;
@@ -71,8 +102,16 @@ pub fn from_depth(
                 return Err(Error::invalid("mesh", "more than 4 billion vertices"));
             }
             index[i] = mesh.vertices.len() as u32;
-            let (x, y) = pixel_to_xy(r, c, w, h);
-            mesh.vertices.push([x as f32, y as f32, depth.data[i]]);
+            let v = match opts.camera {
+                Some(cam) => cam
+                    .back_project(r, c, depth.data[i] as f64)
+                    .map(|v| v as f32),
+                None => {
+                    let (x, y) = pixel_to_xy(r, c, w, h);
+                    [x as f32, y as f32, depth.data[i]]
+                }
+            };
+            mesh.vertices.push(v);
             mesh.normals
                 .push(vertex_normal(depth, &valid, normals, r, c));
         }
@@ -86,7 +125,7 @@ pub fn from_depth(
     if let Some(a) = albedo {
         mesh.colors = Some(colors(a, &index));
     }
-    mesh.faces = faces(&index, w, h);
+    mesh.faces = faces(&index, w, h, opts.cuts);
     Ok(mesh)
 }
 
@@ -148,23 +187,33 @@ fn colors(albedo: &GrayImage, index: &[u32]) -> Vec<[u8; 3]> {
 }
 
 /// Triangles of every 2 × 2 block: a b / c d → (a, c, b) and (b, c, d) when all four
-/// are vertices, otherwise the one triangle of the three that are.
-fn faces(index: &[u32], w: usize, h: usize) -> Vec<[u32; 3]> {
+/// are vertices, otherwise the one triangle of the three that are; a triangle with a
+/// cut edge (a–b, c–d east; a–c, b–d south) is left out.
+fn faces(index: &[u32], w: usize, h: usize, cuts: Option<&Discontinuities>) -> Vec<[u32; 3]> {
     let mut faces = Vec::new();
+    let east = |i: usize| cuts.is_some_and(|k| k.east[i]);
+    let south = |i: usize| cuts.is_some_and(|k| k.south[i]);
     for r in 0..h.saturating_sub(1) {
         for c in 0..w.saturating_sub(1) {
             let i = r * w + c;
             let (a, b, cc, d) = (index[i], index[i + 1], index[i + w], index[i + w + 1]);
             let ok = |v: u32| v != u32::MAX;
+            // Open edges: a-b, c-d, a-c, b-d.
+            let (ab, cd, ac, bd) = (!east(i), !east(i + w), !south(i), !south(i + 1));
+            let mut push = |t: [u32; 3], open: bool| {
+                if open {
+                    faces.push(t);
+                }
+            };
             match (ok(a), ok(b), ok(cc), ok(d)) {
                 (true, true, true, true) => {
-                    faces.push([a, cc, b]);
-                    faces.push([b, cc, d]);
+                    push([a, cc, b], ab && ac);
+                    push([b, cc, d], bd && cd);
                 }
-                (false, true, true, true) => faces.push([b, cc, d]),
-                (true, false, true, true) => faces.push([a, cc, d]),
-                (true, true, false, true) => faces.push([a, d, b]),
-                (true, true, true, false) => faces.push([a, cc, b]),
+                (false, true, true, true) => push([b, cc, d], bd && cd),
+                (true, false, true, true) => push([a, cc, d], ac && cd),
+                (true, true, false, true) => push([a, d, b], ab && bd),
+                (true, true, true, false) => push([a, cc, b], ab && ac),
                 _ => {}
             }
         }

@@ -35,6 +35,7 @@ fn check(errs: &[(Method, f64)], bound: f64, fc_bias_min: f64) {
         match m {
             Method::Dct
             | Method::Lsq
+            | Method::Bilateral { .. }
             | Method::FrankotChellappa { reflect: true }
             | Method::Path => {
                 assert!(

@@ -1,4 +1,5 @@
-//! Masked least-squares integration with a sparse Cholesky factorisation.
+//! Masked least-squares integration: multigrid-preconditioned CG, with sparse Cholesky
+//! as the fallback.
 //!
 //! Unknowns: the depth of the N pixels inside the mask. Edges: pairs of 4-neighbours
 //! both inside the mask, e = (i, j) with j right of or below i, target g_e from the
@@ -8,11 +9,18 @@
 //! L z = b,  L = Σ_e w_e (e_j − e_i)(e_j − e_i)ᵀ,  b = Σ_e w_e g_e (e_j − e_i),
 //!
 //! a weighted graph Laplacian, singular once per connected part (the free offset).
-//! Adding 1 to the diagonal of one pixel per part (the first in raster order) makes it
-//! positive definite without changing the edge residuals: the optimum simply puts that
-//! pixel at 0. The matrix (lower triangle, built directly in compressed-column form) is
-//! factorised by `faer`'s supernodal sparse Cholesky with an AMD ordering, in f64.
+//! Adding a mass to the diagonal of one pixel per part (the first in raster order)
+//! makes it positive definite without changing the edge residuals: the optimum simply
+//! puts that pixel at 0.
+//!
+//! The system is solved by conjugate gradients preconditioned with a multigrid V-cycle
+//! ([`super::multigrid`], O(N), relative residual [`TOL`]). Should that not converge
+//! within [`MAX_ITER`] iterations (not seen on any mask or weight map we tried; a
+//! safety net for extreme weight contrasts), the same matrix is factorised by `faer`'s
+//! supernodal sparse Cholesky with an AMD ordering (exact, but O(N^1.5) time and much
+//! more memory).
 
+use super::multigrid::System;
 use super::support::Components;
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, Mask};
@@ -21,10 +29,13 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{MatMut, Side};
 
-const NONE: usize = usize::MAX;
+/// Relative residual ‖b − Lz‖/‖b‖ at which CG stops.
+pub(crate) const TOL: f64 = 1e-7;
+/// CG iterations before falling back to Cholesky.
+pub(crate) const MAX_ITER: usize = 300;
 
 /// Pixel weights: 1 without a map, otherwise sanitised and floored.
-fn pixel_weights(weights: Option<&GrayImage>, mask: &Mask) -> Vec<f64> {
+pub(crate) fn pixel_weights(weights: Option<&GrayImage>, mask: &Mask) -> Vec<f64> {
     let Some(wm) = weights else {
         return vec![1.0; mask.len()];
     };
@@ -46,7 +57,131 @@ fn pixel_weights(weights: Option<&GrayImage>, mask: &Mask) -> Vec<f64> {
     wm.data.iter().map(|&v| clean(v).max(floor)).collect()
 }
 
-/// Solve the masked problem; returns depth on the whole grid (0 outside the mask).
+/// A weighted least-squares problem on the edges of a masked grid, assembled as the
+/// normal equations: edge weights to the right (`east`) and down (`south`), right-hand
+/// side, and the pins.
+#[derive(Clone, Debug)]
+pub(crate) struct Assembled {
+    pub w: usize,
+    pub h: usize,
+    pub east: Vec<f64>,
+    pub south: Vec<f64>,
+    pub rhs: Vec<f64>,
+    pub mass: Vec<f64>,
+}
+
+impl Assembled {
+    /// An empty problem (no edges) on a w × h grid.
+    pub fn new(w: usize, h: usize) -> Self {
+        Assembled {
+            w,
+            h,
+            east: vec![0.0; w * h],
+            south: vec![0.0; w * h],
+            rhs: vec![0.0; w * h],
+            mass: vec![0.0; w * h],
+        }
+    }
+
+    /// Add the term wt · (z_j − z_i − g)² for the edge from i to j = i + 1 (`east`) or
+    /// j = i + w.
+    #[inline]
+    pub fn add_edge(&mut self, i: usize, east: bool, wt: f64, g: f64) {
+        let j = if east { i + 1 } else { i + self.w };
+        if east {
+            self.east[i] += wt;
+        } else {
+            self.south[i] += wt;
+        }
+        self.rhs[i] -= wt * g;
+        self.rhs[j] += wt * g;
+    }
+
+    /// Pin the first pixel (raster order) of every connected part with a mass equal to
+    /// its edge weights (1 for an isolated pixel).
+    pub fn pin(&mut self, comps: &Components) {
+        let w = self.w;
+        let mut pinned = vec![false; comps.count];
+        for (i, &l) in comps.labels.iter().enumerate() {
+            if l == u32::MAX || pinned[l as usize] {
+                continue;
+            }
+            pinned[l as usize] = true;
+            let (r, c) = (i / w, i % w);
+            let mut d = self.east[i] + self.south[i];
+            if c > 0 {
+                d += self.east[i - 1];
+            }
+            if r > 0 {
+                d += self.south[i - w];
+            }
+            self.mass[i] = if d > 0.0 { d } else { 1.0 };
+        }
+    }
+
+    /// Solve by multigrid CG from `z` (a warm start, or zeros); Cholesky when CG does
+    /// not converge. Returns the CG iterations (0 after the fallback).
+    pub fn solve(&self, z: &mut [f64], tol: f64, mask: &Mask) -> Result<usize> {
+        let sys = System::new(self.w, self.h, &self.east, &self.south, &self.mass);
+        let out = sys.solve(&self.rhs, z, tol, MAX_ITER);
+        if out.relative_residual <= tol.max(1e-12) * 10.0 {
+            return Ok(out.iterations);
+        }
+        let exact = self.cholesky(mask)?;
+        z.copy_from_slice(&exact);
+        Ok(0)
+    }
+
+    /// Exact solve by sparse Cholesky (the fallback).
+    fn cholesky(&self, mask: &Mask) -> Result<Vec<f64>> {
+        let w = self.w;
+        let mut index = vec![usize::MAX; mask.len()];
+        let pixels: Vec<usize> = (0..mask.len()).filter(|&i| mask.data[i]).collect();
+        for (k, &i) in pixels.iter().enumerate() {
+            index[i] = k;
+        }
+        let n = pixels.len();
+        let (mut col_ptr, mut row_idx, mut vals) = (vec![0usize], Vec::new(), Vec::new());
+        // Lower triangle, column k: rows k, right, down (ascending in raster order).
+        for &i in &pixels {
+            let (r, c) = (i / w, i % w);
+            let mut d = self.mass[i] + self.east[i] + self.south[i];
+            if c > 0 {
+                d += self.east[i - 1];
+            }
+            if r > 0 {
+                d += self.south[i - w];
+            }
+            row_idx.push(index[i]);
+            vals.push(d);
+            for (j, wt) in [(i + 1, self.east[i]), (i + w, self.south[i])] {
+                if wt != 0.0 && j < mask.len() && index[j] != usize::MAX {
+                    row_idx.push(index[j]);
+                    vals.push(-wt);
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        let a = SparseColMatRef::new(sym, &vals);
+        let llt = a.sp_cholesky(Side::Lower).map_err(|e| {
+            Error::invalid(
+                "masked integration",
+                format!("sparse Cholesky failed ({e:?}); check the weights for huge values"),
+            )
+        })?;
+        let mut x: Vec<f64> = pixels.iter().map(|&i| self.rhs[i]).collect();
+        llt.solve_in_place(MatMut::from_column_major_slice_mut(&mut x, n, 1));
+        let mut z = vec![0.0; mask.len()];
+        for (k, &i) in pixels.iter().enumerate() {
+            z[i] = x[k];
+        }
+        Ok(z)
+    }
+}
+
+/// Solve the masked problem; returns depth on the whole grid (0 outside the mask) and
+/// the CG iterations.
 pub(crate) fn integrate(
     p: &[f32],
     q: &[f32],
@@ -54,104 +189,32 @@ pub(crate) fn integrate(
     weights: Option<&GrayImage>,
     comps: &Components,
     progress: &dyn Progress,
-) -> Result<Vec<f32>> {
+) -> Result<(Vec<f32>, usize)> {
     let (w, h) = (mask.width, mask.height);
-    progress.start("lsq: assemble, factorise, solve", 3);
+    progress.start("lsq: assemble, solve", 2);
     let wt = pixel_weights(weights, mask);
-    // Unknown index of every mask pixel, raster order.
-    let mut index = vec![NONE; w * h];
-    let mut pixels = Vec::with_capacity(mask.count());
-    for (i, &m) in mask.data.iter().enumerate() {
-        if m {
-            index[i] = pixels.len();
-            pixels.push(i);
+    let mut sys = Assembled::new(w, h);
+    for r in 0..h {
+        for c in 0..w {
+            let i = r * w + c;
+            if !mask.data[i] {
+                continue;
+            }
+            if c + 1 < w && mask.data[i + 1] {
+                let g = 0.5 * (p[i] as f64 + p[i + 1] as f64);
+                sys.add_edge(i, true, 0.5 * (wt[i] + wt[i + 1]), g);
+            }
+            if r + 1 < h && mask.data[i + w] {
+                let g = -0.5 * (q[i] as f64 + q[i + w] as f64);
+                sys.add_edge(i, false, 0.5 * (wt[i] + wt[i + w]), g);
+            }
         }
     }
-    let n = pixels.len();
-    let mut pinned = vec![false; comps.count];
-    let mut diag = vec![0.0f64; n];
-    let mut rhs = vec![0.0f64; n];
-    let mut col_ptr = Vec::with_capacity(n + 1);
-    let mut row_idx = Vec::with_capacity(3 * n);
-    let mut vals = Vec::with_capacity(3 * n);
-    // First pass: diagonal and right-hand side from every edge.
-    let edge = |i: usize, j: usize, g: f64, diag: &mut [f64], rhs: &mut [f64]| {
-        let we = 0.5 * (wt[i] + wt[j]);
-        let (a, b) = (index[i], index[j]);
-        diag[a] += we;
-        diag[b] += we;
-        rhs[a] -= we * g;
-        rhs[b] += we * g;
-        we
-    };
-    let mut off = Vec::with_capacity(2 * n);
-    for &i in &pixels {
-        let (r, c) = (i / w, i % w);
-        let right = if c + 1 < w && mask.data[i + 1] {
-            Some(i + 1)
-        } else {
-            None
-        };
-        let down = if r + 1 < h && mask.data[i + w] {
-            Some(i + w)
-        } else {
-            None
-        };
-        let er = right.map(|j| {
-            (
-                index[j],
-                edge(i, j, 0.5 * (p[i] as f64 + p[j] as f64), &mut diag, &mut rhs),
-            )
-        });
-        let ed = down.map(|j| {
-            (
-                index[j],
-                edge(
-                    i,
-                    j,
-                    -0.5 * (q[i] as f64 + q[j] as f64),
-                    &mut diag,
-                    &mut rhs,
-                ),
-            )
-        });
-        off.push((er, ed));
-    }
-    for (k, &i) in pixels.iter().enumerate() {
-        let part = comps.labels[i] as usize;
-        if !pinned[part] {
-            pinned[part] = true;
-            diag[k] += 1.0;
-        }
-    }
-    // Lower triangle in compressed-column form: column k holds rows k, right, down
-    // (all ≥ k and ascending, since right = k+1 and down comes later in raster order).
-    col_ptr.push(0usize);
-    for (k, (er, ed)) in off.iter().enumerate() {
-        row_idx.push(k);
-        vals.push(diag[k]);
-        for &(j, we) in er.iter().chain(ed.iter()) {
-            row_idx.push(j);
-            vals.push(-we);
-        }
-        col_ptr.push(row_idx.len());
-    }
+    sys.pin(comps);
     progress.advance(1);
-    let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-    let a = SparseColMatRef::new(sym, &vals);
-    let llt = a.sp_cholesky(Side::Lower).map_err(|e| {
-        Error::invalid(
-            "lsq integration",
-            format!("sparse Cholesky failed ({e:?}); check the weights for huge values"),
-        )
-    })?;
-    progress.advance(1);
-    llt.solve_in_place(MatMut::from_column_major_slice_mut(&mut rhs, n, 1));
+    let mut z = vec![0.0f64; w * h];
+    let iterations = sys.solve(&mut z, TOL, mask)?;
     progress.advance(1);
     progress.finish();
-    let mut z = vec![0.0f32; w * h];
-    for (k, &i) in pixels.iter().enumerate() {
-        z[i] = rhs[k] as f32;
-    }
-    Ok(z)
+    Ok((z.iter().map(|&v| v as f32).collect(), iterations))
 }

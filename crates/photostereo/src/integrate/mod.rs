@@ -23,7 +23,8 @@
 //! | [`Method::FrankotChellappa`] | whole grid, wrapping around | periodic | 2 FFTs |
 //! | FC with `reflect` | mirrored grid (2W × 2H) | mirror = Neumann | 2 FFTs of 4N |
 //! | [`Method::Dct`] | whole rectangle | Neumann (free edge) | 2 DCTs |
-//! | [`Method::Lsq`] | only between mask pixels | free edge of the mask | sparse Cholesky |
+//! | [`Method::Lsq`] | only between mask pixels | free edge of the mask | multigrid CG, O(N) |
+//! | [`Method::Bilateral`] | one-sided, between mask pixels | free edge, breaks at jumps | reweighted multigrid CG |
 //!
 //! The normal equations of E are a graph Laplacian system L z = div g.
 //!
@@ -50,10 +51,13 @@
 //!   equations in computer vision problems", IEEE PAMI 12(5), 1990.
 //! * Y. Quéau, J.-D. Durou, J.-F. Aujol, "Normal integration: a survey", JMIV 60, 2018.
 
+mod bilateral;
+mod camera;
 mod dct;
 mod fft2;
 mod fourier;
 mod lsq;
+mod multigrid;
 pub mod path;
 mod support;
 
@@ -61,12 +65,13 @@ use crate::error::{Error, Result};
 use crate::image::{DepthMap, GrayImage, Mask, NormalMap};
 use crate::progress::{NoProgress, Progress};
 
+pub use camera::Camera;
 pub use fft2::fft_floor;
 pub use support::{label_components, Components};
 
 /// How to turn gradients into depth. Each variant states its equation and its
 /// boundary assumption; see the module documentation for the common notation.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Method {
     /// Path integration: cumulative trapezoidal sums from a reference pixel (the mask
     /// pixel nearest the image centre), once along its row then down/up every column,
@@ -100,10 +105,25 @@ pub enum Method {
     /// Masked least squares: E(z) over the edges whose two ends are both inside the
     /// mask, with optional per-pixel weights (edge weight = mean of its two pixels'
     /// weights). The normal equations L z = b (a weighted graph Laplacian) are solved by
-    /// sparse Cholesky (`faer`, AMD ordering), with one pixel per connected part pinned
-    /// to 0 (then each part is shifted to mean 0). **Boundary: the mask's own edge**;
-    /// holes and several parts are handled exactly.
+    /// conjugate gradients with a multigrid preconditioner (relative residual 1e-7; sparse
+    /// Cholesky as a fallback should CG not converge), with one pixel per connected part
+    /// pinned to 0 (then each part is shifted to mean 0). **Boundary: the mask's own
+    /// edge**; holes and several parts are handled exactly. With a camera it solves the
+    /// perspective equations of [`Method::Bilateral`] with all bilateral weights 1/2.
     Lsq,
+    /// Bilateral normal integration (Cao et al., ECCV 2022): one-sided differences to the
+    /// four neighbours, each weighted by a sigmoid of the squared difference of the two
+    /// sides, by iteratively reweighted least squares; depth discontinuities come out as
+    /// jumps (reported in [`Output::discontinuities`]). Orthographic, or perspective with
+    /// [`Options::camera`]. Equations: module `bilateral` (see [`Method::bini`]).
+    Bilateral {
+        /// Sharpness of the sigmoid (unitless, default 2; larger breaks more easily).
+        k: f32,
+        /// Most reweighting iterations (default 150).
+        max_iter: u32,
+        /// Stop when the relative energy change falls below this (default 1e-4).
+        tol: f32,
+    },
 }
 
 impl Method {
@@ -115,6 +135,16 @@ impl Method {
             Method::FrankotChellappa { reflect: true } => "fc-reflect",
             Method::Dct => "dct",
             Method::Lsq => "lsq",
+            Method::Bilateral { .. } => "bini",
+        }
+    }
+
+    /// [`Method::Bilateral`] with the paper's defaults: k = 2, 150 iterations, tol 1e-4.
+    pub fn bini() -> Self {
+        Method::Bilateral {
+            k: 2.0,
+            max_iter: 150,
+            tol: 1e-4,
         }
     }
 
@@ -126,10 +156,11 @@ impl Method {
             "fc-reflect" => Method::FrankotChellappa { reflect: true },
             "dct" => Method::Dct,
             "lsq" => Method::Lsq,
+            "bini" => Method::bini(),
             other => {
                 return Err(Error::invalid(
                     format!("integration method `{other}`"),
-                    "use one of path, fc, fc-reflect, dct, lsq",
+                    "use one of path, fc, fc-reflect, dct, lsq, bini",
                 ))
             }
         })
@@ -142,13 +173,17 @@ pub struct Options {
     /// The integrator (default [`Method::Lsq`]; [`choose_method`] picks one from the mask).
     pub method: Method,
     /// Per-pixel confidence (≥ 0, same size as the mask) weighting the least-squares
-    /// edges; only [`Method::Lsq`] uses it (an error otherwise). NaN or negative values
+    /// edges; only [`Method::Lsq`] and [`Method::Bilateral`] use it (an error otherwise). NaN or negative values
     /// count as 0, and weights are floored at 1e-4 × their maximum so that every part
     /// stays connected.
     pub weights: Option<GrayImage>,
     /// Smallest accepted n_z (unitless, default 0.05, i.e. slopes up to 20 pixel/pixel,
     /// 87°); normals below it are clamped and counted.
     pub min_nz: f32,
+    /// Pinhole camera: integrate in perspective (only [`Method::Lsq`] and
+    /// [`Method::Bilateral`], from normals). The depth is then the distance along the
+    /// optical axis (see [`Output::depth`]). `None` (default): orthographic.
+    pub camera: Option<Camera>,
 }
 
 impl Default for Options {
@@ -157,15 +192,39 @@ impl Default for Options {
             method: Method::Lsq,
             weights: None,
             min_nz: 0.05,
+            camera: None,
         }
+    }
+}
+
+/// Edges across which the surface breaks (found by [`Method::Bilateral`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Discontinuities {
+    /// Image width.
+    pub width: usize,
+    /// Image height.
+    pub height: usize,
+    /// Per pixel (row-major): the edge to its right neighbour is cut.
+    pub east: Vec<bool>,
+    /// Per pixel: the edge to the pixel below is cut.
+    pub south: Vec<bool>,
+}
+
+impl Discontinuities {
+    /// Number of cut edges.
+    pub fn count(&self) -> usize {
+        self.east.iter().chain(&self.south).filter(|&&b| b).count()
     }
 }
 
 /// Solver diagnostics.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SolverInfo {
-    /// Iterations of an iterative solver (0: all methods here are direct).
+    /// Iterations: conjugate-gradient iterations of [`Method::Lsq`] (0 after the Cholesky
+    /// fallback), reweighting iterations of [`Method::Bilateral`], 0 for direct methods.
     pub iterations: usize,
+    /// Conjugate-gradient iterations of all inner solves of [`Method::Bilateral`].
+    pub inner_iterations: usize,
     /// RMS over the in-mask edges of z_j − z_i − g_e (depth units per pixel step): how
     /// far the gradients are from being integrable plus the method's own error.
     pub residual: f32,
@@ -174,8 +233,11 @@ pub struct SolverInfo {
 /// Result of an integration.
 #[derive(Clone, Debug)]
 pub struct Output {
-    /// Depth in pixel units (larger = closer), mean 0 over each connected part of the
-    /// mask, NaN outside the mask.
+    /// Orthographic: depth in pixel units (larger = closer), mean 0 over each connected
+    /// part of the mask. With a camera: the distance along the optical axis (positive,
+    /// larger = farther), known up to one scale per part, each part scaled so that its
+    /// geometric-mean distance is f_x (then the mesh's lateral units are about pixels).
+    /// NaN outside the mask.
     pub depth: DepthMap,
     /// The method that was used.
     pub method: Method,
@@ -188,6 +250,10 @@ pub struct Output {
     pub components: usize,
     /// Solver diagnostics.
     pub info: SolverInfo,
+    /// [`Method::Bilateral`] only: the edges where the surface breaks.
+    pub discontinuities: Option<Discontinuities>,
+    /// The camera of a perspective integration.
+    pub camera: Option<Camera>,
 }
 
 /// The method to use when the user names none: [`Method::Dct`] when the mask covers
@@ -240,10 +306,105 @@ pub fn solve_with_progress(
     progress: &dyn Progress,
 ) -> Result<Output> {
     mask.check_size(normals.width, normals.height, "integration mask")?;
+    if let Some(cam) = opts.camera {
+        return perspective(normals, mask, &cam, opts, progress);
+    }
     let (p, q, clamped) = gradients(normals, mask, opts.min_nz);
     let mut out = integrate_gradients_with_progress(&p, &q, mask, opts, progress)?;
     out.clamped = clamped;
     Ok(out)
+}
+
+/// BiNI parameters of a method ([`Method::Lsq`]: one solve with all weights 1/2).
+fn bini_params(method: Method) -> bilateral::Params {
+    match method {
+        Method::Bilateral { k, max_iter, tol } => bilateral::Params {
+            k: k as f64,
+            max_iter: max_iter.max(1) as usize,
+            tol: tol as f64,
+        },
+        _ => bilateral::Params {
+            k: 0.0,
+            max_iter: 1,
+            tol: 0.0,
+        },
+    }
+}
+
+/// Perspective integration (module `bilateral`): v = f_x ln t, then t = f_x e^(v/f_x)
+/// with v centred per part.
+fn perspective(
+    normals: &NormalMap,
+    mask: &Mask,
+    cam: &Camera,
+    opts: &Options,
+    progress: &dyn Progress,
+) -> Result<Output> {
+    let (w, h) = (mask.width, mask.height);
+    if !matches!(opts.method, Method::Lsq | Method::Bilateral { .. }) {
+        return Err(Error::invalid(
+            format!("a camera with method {}", opts.method.name()),
+            "perspective integration needs method lsq or bini",
+        ));
+    }
+    check_common(w, h, mask, opts)?;
+    let comps = label_components(mask);
+    let (field, clamped) = bilateral::Field::perspective(normals, mask, cam, opts.min_nz);
+    let conf = lsq::pixel_weights(opts.weights.as_ref(), mask);
+    let sol = bilateral::integrate(
+        &field,
+        &conf,
+        mask,
+        &comps,
+        bini_params(opts.method),
+        progress,
+    )?;
+    let z: Vec<f32> = sol.v.iter().map(|&v| v as f32).collect();
+    let p: Vec<f32> = field.g_h.iter().map(|&g| g as f32).collect();
+    let q: Vec<f32> = field.g_v.iter().map(|&g| -g as f32).collect();
+    let measured = support::edge_residual(&z, &p, &q, mask);
+    let (mut depth, parts) = center(z, Some(&comps), measured.depth_sum, w, h)?;
+    let f = cam.fx as f32;
+    depth.data.iter_mut().for_each(|v| *v = f * (*v / f).exp());
+    Ok(Output {
+        depth,
+        method: opts.method,
+        clamped,
+        path_disagreement: None,
+        components: parts,
+        info: bini_info(opts.method, &sol, measured.rms as f32),
+        discontinuities: discontinuities(opts.method, sol, w, h),
+        camera: Some(*cam),
+    })
+}
+
+fn bini_info(method: Method, sol: &bilateral::Solution, residual: f32) -> SolverInfo {
+    match method {
+        Method::Bilateral { .. } => SolverInfo {
+            iterations: sol.iterations,
+            inner_iterations: sol.cg_iterations,
+            residual,
+        },
+        _ => SolverInfo {
+            iterations: sol.cg_iterations,
+            inner_iterations: 0,
+            residual,
+        },
+    }
+}
+
+fn discontinuities(
+    method: Method,
+    sol: bilateral::Solution,
+    width: usize,
+    height: usize,
+) -> Option<Discontinuities> {
+    matches!(method, Method::Bilateral { .. }).then_some(Discontinuities {
+        width,
+        height,
+        east: sol.cut_east,
+        south: sol.cut_south,
+    })
 }
 
 /// Integrate gradients p = ∂z/∂x, q = ∂z/∂y inside a mask. Non-finite gradients inside
@@ -270,8 +431,11 @@ pub fn integrate_gradients_with_progress(
     let full = support::all_set_par(&mask.data);
     let (p, q, clamped) = support::sanitize(p, q, mask, full);
     // A full mask is one part; the lsq solver needs the labels in every case.
-    let comps = (!full || opts.method == Method::Lsq).then(|| label_components(mask));
+    let iterative = matches!(opts.method, Method::Lsq | Method::Bilateral { .. });
+    let comps = (!full || iterative).then(|| label_components(mask));
     let mut path_disagreement = None;
+    let mut info = SolverInfo::default();
+    let mut disc = None;
     let z: Vec<f32> = match opts.method {
         Method::Path => {
             let (z, dis) = path::integrate(&p, &q, mask);
@@ -284,11 +448,32 @@ pub fn integrate_gradients_with_progress(
             let comps = comps
                 .as_ref()
                 .unwrap_or_else(|| unreachable!("labelled for lsq"));
-            lsq::integrate(&p, &q, mask, opts.weights.as_ref(), comps, progress)?
+            let (z, it) = lsq::integrate(&p, &q, mask, opts.weights.as_ref(), comps, progress)?;
+            info.iterations = it;
+            z
+        }
+        Method::Bilateral { .. } => {
+            let comps = comps
+                .as_ref()
+                .unwrap_or_else(|| unreachable!("labelled for bini"));
+            let field = bilateral::Field::orthographic(&p, &q, mask);
+            let conf = lsq::pixel_weights(opts.weights.as_ref(), mask);
+            let sol = bilateral::integrate(
+                &field,
+                &conf,
+                mask,
+                comps,
+                bini_params(opts.method),
+                progress,
+            )?;
+            info = bini_info(opts.method, &sol, 0.0);
+            let z = sol.v.iter().map(|&v| v as f32).collect();
+            disc = discontinuities(opts.method, sol, w, h);
+            z
         }
     };
     let measured = support::edge_residual(&z, &p, &q, mask);
-    let residual = measured.rms as f32;
+    info.residual = measured.rms as f32;
     let (depth, parts) = center(z, comps.as_ref(), measured.depth_sum, w, h)?;
     Ok(Output {
         depth,
@@ -296,10 +481,9 @@ pub fn integrate_gradients_with_progress(
         clamped,
         path_disagreement,
         components: parts,
-        info: SolverInfo {
-            iterations: 0,
-            residual,
-        },
+        info,
+        discontinuities: disc,
+        camera: None,
     })
 }
 
@@ -344,6 +528,17 @@ fn check_inputs(p: &GrayImage, q: &GrayImage, mask: &Mask, opts: &Options) -> Re
             fix: "p and q must have the same size".into(),
         });
     }
+    if opts.camera.is_some() {
+        return Err(Error::invalid(
+            "a camera with gradients",
+            "perspective integration works from normals: use solve() with the normal map",
+        ));
+    }
+    check_common(w, h, mask, opts)
+}
+
+/// Checks shared by the orthographic and the perspective paths.
+fn check_common(w: usize, h: usize, mask: &Mask, opts: &Options) -> Result<()> {
     mask.check_size(w, h, "integration mask")?;
     if w < 2 || h < 2 {
         return Err(Error::invalid(
@@ -358,13 +553,13 @@ fn check_inputs(p: &GrayImage, q: &GrayImage, mask: &Mask, opts: &Options) -> Re
         });
     }
     if let Some(weights) = &opts.weights {
-        if opts.method != Method::Lsq {
+        if !matches!(opts.method, Method::Lsq | Method::Bilateral { .. }) {
             return Err(Error::invalid(
                 format!("weights with method {}", opts.method.name()),
-                "per-pixel weights are only used by lsq; choose lsq or drop the weights",
+                "per-pixel weights are only used by lsq and bini; choose one or drop the weights",
             ));
         }
-        if !weights.same_size(p) {
+        if weights.width != w || weights.height != h {
             return Err(Error::SizeMismatch {
                 what: "integration weights".into(),
                 expected_w: w,
@@ -373,6 +568,14 @@ fn check_inputs(p: &GrayImage, q: &GrayImage, mask: &Mask, opts: &Options) -> Re
                 found_h: weights.height,
                 fix: "use a confidence map of the same size as the normals".into(),
             });
+        }
+    }
+    if let Method::Bilateral { k, tol, .. } = opts.method {
+        if !(k.is_finite() && k > 0.0 && tol.is_finite() && tol >= 0.0) {
+            return Err(Error::invalid(
+                format!("bini parameters k = {k}, tol = {tol}"),
+                "k must be positive (default 2) and tol non-negative (default 1e-4)",
+            ));
         }
     }
     Ok(())

@@ -29,6 +29,13 @@
 //! A grayscale image with an RGB intensity triple is divided by the triple's
 //! luminance. An alpha channel is ignored. Float TIFFs are taken as they are.
 //!
+//! # Limits
+//!
+//! Every reader checks what a header claims (an `.npy` shape, an image size, a table's
+//! window) against the file's real size and the limits of [`limits`] before allocating,
+//! and refuses the file with a message naming it and the claim. Text files are at most
+//! [`limits::MAX_TEXT_BYTES`]; float images must hold finite values.
+//!
 //! # Writing
 //!
 //! Every writer goes through [`write_atomic`]: the bytes go to a temporary file in the

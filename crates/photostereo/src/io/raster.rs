@@ -11,7 +11,7 @@
 use super::{encode_error, limits, not_found_or_io, write_atomic};
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, Mask, NormalMap};
-use image::codecs::png::PngEncoder;
+use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use image::{DynamicImage, ImageBuffer, ImageReader, Luma, Rgb};
 use std::path::Path;
 
@@ -238,8 +238,14 @@ where
     }
     let buf = ImageBuffer::<P, Vec<P::Subpixel>>::from_raw(w, h, data).ok_or_else(too_big)?;
     write_atomic(path, |out| {
-        buf.write_with_encoder(PngEncoder::new(out))
-            .map_err(|e| encode_error(path, e))
+        // Fast deflate: previews of 2048² depth maps were dominated by zlib's default
+        // level (files ~10-20% larger, written several times faster).
+        buf.write_with_encoder(PngEncoder::new_with_quality(
+            out,
+            CompressionType::Fast,
+            FilterType::Adaptive,
+        ))
+        .map_err(|e| encode_error(path, e))
     })
 }
 

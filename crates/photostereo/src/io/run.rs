@@ -24,8 +24,8 @@ pub fn read_meta_scale(dir: &Path) -> Result<Option<f32>> {
     if !path.exists() {
         return Ok(None);
     }
-    let bytes = read_file(&path, "remove it or fix its path")?;
-    let v: serde_json::Value = serde_json::from_slice(&bytes).map_err(|e| Error::Decode {
+    let text = super::read_text(&path)?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::Decode {
         path: path.clone(),
         message: format!("not valid JSON ({e})"),
     })?;

@@ -166,6 +166,26 @@ impl Index {
         best
     }
 
+    /// Projected coordinates of entry `id` (`None` when it is not indexed).
+    pub fn point(&self, id: u32) -> Option<&[f32]> {
+        match self.slot.get(id as usize) {
+            Some(&pos) if pos != u32::MAX => {
+                Some(&self.coords[pos as usize * self.d..(pos as usize + 1) * self.d])
+            }
+            _ => None,
+        }
+    }
+
+    /// Squared projected distance from the projected query `q` to entry `id` (infinite
+    /// when the entry is not indexed).
+    #[inline]
+    pub fn distance(&self, q: &[f32], id: u32) -> f32 {
+        match self.slot.get(id as usize) {
+            Some(&pos) if pos != u32::MAX => self.dist_at(pos as usize, q),
+            _ => f32::INFINITY,
+        }
+    }
+
     #[inline]
     fn dist_at(&self, pos: usize, q: &[f32]) -> f32 {
         let p = &self.coords[pos * self.d..(pos + 1) * self.d];

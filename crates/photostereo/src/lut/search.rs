@@ -3,22 +3,32 @@
 
 use super::index::Index;
 use super::model::{Fit, Model, Scratch};
+use super::rim::{Rim, RimBuf};
 use super::single::{self, Buf, Single};
 use super::{Method, Options};
 use crate::image::normalize;
+use rayon::prelude::*;
 
 /// Target number of points of the coarse grid used by the exhaustive searches.
 const COARSE_POINTS: usize = 1500;
 /// Coarse candidates kept for the local descent.
 const COARSE_KEEP: usize = 3;
 
-/// Longest run of pixels matched by the coherence shortcut between two tree searches.
-const WARM_RUN: u32 = 16;
+/// Distance (grid pixels) within which the tree's best candidate counts as lying in the
+/// basin of the coherence shortcut's fit (module docs, step 1).
+const SAME_BASIN: f64 = 1.5;
 /// Largest step (grid pixels) between neighbouring pixels that the warm start
 /// extrapolates.
 const MAX_EXTRAPOLATION: f64 = 2.0;
 /// Relative residual always accepted by the coherence tests.
 const WARM_FLOOR: f32 = 0.003;
+/// Grid distance (pixels) from an entry beyond which other entries count as lying
+/// outside its basin, for the entries' isolation radii (see `certified`).
+const ISOLATION_BASIN: f64 = 3.0;
+/// Neighbours searched for an entry's isolation radius.
+const ISOLATION_M: usize = 12;
+/// A fit within this many grid pixels of the table's edge is refitted on the rim model.
+const RIM_TRIGGER: f64 = 1.0;
 
 /// The previous pixel's solution, for the coherence shortcut.
 #[derive(Clone, Copy, Debug)]
@@ -28,8 +38,6 @@ pub(crate) struct Warm {
     /// Step from the pixel before (the start is extrapolated by it).
     pub dgx: f64,
     pub dgy: f64,
-    /// Pixels matched by the shortcut since the last tree search.
-    pub since_tree: u32,
     /// The solution had lights dropped as cast-shadowed (they are in `Work::prev_w`).
     pub masked: bool,
 }
@@ -41,10 +49,14 @@ impl Warm {
             gy,
             dgx: 0.0,
             dgy: 0.0,
-            since_tree: 0,
             masked: false,
         }
     }
+}
+
+/// The two fits lie within [`SAME_BASIN`] grid pixels of each other.
+fn same_basin(a: &Fit, b: &Fit) -> bool {
+    (a.gx - b.gx).powi(2) + (a.gy - b.gy).powi(2) <= SAME_BASIN * SAME_BASIN
 }
 
 /// √cost / ‖t‖ from a precomputed ‖t‖.
@@ -92,6 +104,7 @@ pub(crate) struct Work {
     q: Vec<f32>,
     pub s: Scratch,
     b: Buf,
+    rim: RimBuf,
     /// ‖t‖ of the current pixel.
     norm: f32,
     /// The fast path's buffer holds the current fit's tuple.
@@ -108,6 +121,7 @@ impl Work {
             q: vec![0.0; k + 8],
             s: Scratch::new(k),
             b: Buf::new(k),
+            rim: RimBuf::new(k),
             norm: 0.0,
             fresh: false,
         }
@@ -145,6 +159,10 @@ pub(crate) struct Solver<'a> {
     coarse_step: f64,
     /// Brightness scale of each table (largest sample).
     peaks: [f32; 2],
+    /// The table's extension past its last clean ring (one table, refined lookup).
+    rim: Option<Rim>,
+    /// Isolation radius of each entry (see `certified`; one table, refined lookup).
+    isolation: Vec<f32>,
 }
 
 impl<'a> Solver<'a> {
@@ -171,6 +189,9 @@ impl<'a> Solver<'a> {
         let (coarse_pos, coarse_basis, coarse_step) = coarse_grid(&model);
         let peaks = [t0.peak(), model.tables.get(1).map_or(0.0, |t| t.peak())];
         let single = (!model.is_mix()).then(|| Single::new(t0, opts.normalize));
+        let rim = (!model.is_mix() && opts.method == Method::Refined)
+            .then(|| Rim::fit(t0))
+            .flatten();
         let mut ones = vec![0.0; single::padded(k)];
         ones[..k].fill(1.0);
         let ws = &t0.window.stack;
@@ -190,7 +211,50 @@ impl<'a> Solver<'a> {
             coarse_basis,
             coarse_step,
             peaks,
+            rim,
+            isolation: Vec::new(),
         }
+        .with_isolation()
+    }
+
+    /// The isolation radii of the entries at even grid points (even row and column; 0
+    /// elsewhere): the projected distance to the nearest entry more than
+    /// [`ISOLATION_BASIN`] px away on the grid, or to the last of its [`ISOLATION_M`]
+    /// nearest when all of them are closer (a lower bound).
+    fn with_isolation(mut self) -> Self {
+        let Some(index) = self
+            .index
+            .as_ref()
+            .filter(|_| self.opts.method == Method::Refined)
+        else {
+            return self;
+        };
+        let n = self.model.tables[0].entries.len();
+        let isolation = (0..n as u32)
+            .into_par_iter()
+            .map(|e| {
+                let (gx, gy) = self.entry_grid(e);
+                let Some(p) = index
+                    .point(e)
+                    .filter(|_| gx % 2.0 == 0.0 && gy % 2.0 == 0.0)
+                else {
+                    return 0.0;
+                };
+                let cands = index.nearest(p, ISOLATION_M, &[e]);
+                let far = (0..cands.len).find(|&i| {
+                    let (x, y) = self.entry_grid(cands.ids[i]);
+                    (x - gx).powi(2) + (y - gy).powi(2) > ISOLATION_BASIN * ISOLATION_BASIN
+                });
+                match far {
+                    Some(i) => cands.dist[i].max(0.0).sqrt(),
+                    // all indexed entries are within the basin
+                    None if cands.len < ISOLATION_M => f32::INFINITY,
+                    None => cands.dist[cands.len - 1].max(0.0).sqrt(),
+                }
+            })
+            .collect();
+        self.isolation = isolation;
+        self
     }
 
     /// Table 0's entry at window pixel (r, c), `u32::MAX` where none.
@@ -237,6 +301,7 @@ impl<'a> Solver<'a> {
             }
         };
         self.update_warm(&fit, shadowed, wk);
+        let fit = self.rim_fit(fit, wk);
         let mut out = self.finish(&wk.t[..k], &wk.w[..k], fit, shadowed);
         if self.model.is_mix() {
             let sigma = self
@@ -249,22 +314,88 @@ impl<'a> Solver<'a> {
         out
     }
 
-    /// The fit on all lights: coherence shortcut or tree search + refinement (one
-    /// table), or the exhaustive search (two tables).
+    /// The fit on all lights: coherence shortcut under the global check (one table), or
+    /// the exhaustive search (two tables).
     fn first_fit(&self, wk: &mut Work) -> Fit {
         match (&self.index, self.opts.method) {
-            (Some(index), Method::Refined) => match self.warm_start(wk) {
-                Some(fit) => fit,
-                None => {
-                    let fit = self.tree_match(index, None, wk);
-                    let fit = self.refine(false, fit, wk);
-                    wk.s.rel_ref = relative_to(wk.norm, fit.cost);
-                    wk.s.warm = Some(Warm::at(fit.gx, fit.gy));
-                    fit
-                }
-            },
-            (Some(index), _) => self.tree_match(index, None, wk),
+            (Some(index), Method::Refined) => self.checked_fit(index, wk),
+            (Some(index), _) => self.tree_match(index, None, false, wk),
             (None, _) => self.exhaustive(false, wk),
+        }
+    }
+
+    /// Coherence shortcut under the global check (module docs, step 1): Gauss–Newton
+    /// from the previous pixel's solution extrapolated by its step, then the tree's
+    /// candidates for this pixel re-ranked on the full cost. The shortcut is kept only
+    /// when it fits at least as well as the best candidate and that candidate lies
+    /// within [`SAME_BASIN`] of it; otherwise the refinement from the best candidate
+    /// runs and the better of the two fits is kept. Every pixel therefore fits at least
+    /// as well as its own tree search, whatever its neighbours did.
+    fn checked_fit(&self, index: &Index, wk: &mut Work) -> Fit {
+        let warm = wk.s.warm.map(|w| {
+            let start = Fit {
+                gx: w.gx + w.dgx,
+                gy: w.gy + w.dgy,
+                coef: [1.0, 0.0],
+                cost: f32::INFINITY,
+            };
+            self.refine(false, start, wk)
+        });
+        if let Some(f) = warm.filter(|f| self.certified(index, f, wk)) {
+            wk.s.rel_ref = relative_to(wk.norm, f.cost);
+            return f;
+        }
+        let tree = self.tree_match(index, warm.as_ref(), false, wk);
+        if let Some(f) = warm {
+            if f.cost <= tree.cost && same_basin(&f, &tree) {
+                wk.s.rel_ref = relative_to(wk.norm, f.cost);
+                return f;
+            }
+        }
+        let g = self.refine(false, tree, wk);
+        let fit = match warm {
+            Some(f) if f.cost < g.cost => {
+                wk.fresh = false;
+                f
+            }
+            _ => g,
+        };
+        wk.s.rel_ref = relative_to(wk.norm, fit.cost);
+        if wk.s.warm.is_none() {
+            wk.s.warm = Some(Warm::at(fit.gx, fit.gy));
+        }
+        fit
+    }
+
+    /// The certificate of the coherence shortcut (module docs, step 1): no table entry
+    /// more than [`ISOLATION_BASIN`] + 1.5 px from `f` fits the target better. With e₀
+    /// the entry at the even grid point (even row and column) nearest to `f` and ρ(e₀) its isolation radius (the
+    /// projected distance to the nearest entry more than [`ISOLATION_BASIN`] px away on
+    /// the grid), every such entry lies at least ρ(e₀) − ‖q − e₀‖ from the query q in
+    /// the projected space, and the projected distance d bounds the cost from below
+    /// (raw matching: cost ≥ d²; normalised: cost ≥ ‖t‖²·min(1, d²/2)).
+    fn certified(&self, index: &Index, f: &Fit, wk: &mut Work) -> bool {
+        let k = self.model.k;
+        let even = |g: f64| 2 * (0.5 * g).round().max(0.0) as usize;
+        let e0 = self.entry_at(even(f.gy), even(f.gx));
+        if e0 == u32::MAX {
+            return false;
+        }
+        let norm = wk.norm;
+        let query = self.query(&wk.t[..k], index, &mut wk.q);
+        let d = index.distance(query, e0).sqrt();
+        self.lower_bound(norm, self.isolation[e0 as usize] - d) >= f.cost
+    }
+
+    /// Lower bound of the cost of an entry at projected distance `d` (≤ 0: none) from
+    /// the query of a target of norm `norm`.
+    fn lower_bound(&self, norm: f32, d: f32) -> f32 {
+        if d <= 0.0 {
+            0.0
+        } else if self.opts.normalize {
+            norm * norm * (0.5 * d * d).min(1.0)
+        } else {
+            d * d
         }
     }
 
@@ -343,11 +474,39 @@ impl<'a> Solver<'a> {
                 return None;
             }
             if !changed {
-                return Some((fit, shadowed));
+                // the global check, on the lights kept (module docs, step 4)
+                let index = self.index.as_ref()?;
+                let best = self.tree_match(index, Some(&fit), true, wk);
+                let kept = fit.cost <= best.cost && same_basin(&fit, &best);
+                return kept.then_some((fit, shadowed));
             }
             fit.cost = f32::INFINITY;
         }
         None
+    }
+
+    /// A fit at the table's edge refitted on the rim model (see `rim.rs`), with the same
+    /// lights; kept when its residual is lower.
+    fn rim_fit(&self, fit: Fit, wk: &mut Work) -> Fit {
+        let Some(rim) = &self.rim else {
+            return fit;
+        };
+        let t0 = &self.model.tables[0];
+        let (cgx, cgy) = t0.to_grid(t0.circle.cx, t0.circle.cy);
+        let d = ((fit.gx - cgx).powi(2) + (fit.gy - cgy).powi(2)).sqrt();
+        if d < t0.search_radius() - RIM_TRIGGER {
+            return fit;
+        }
+        let k = self.model.k;
+        let n0 = t0.grid_normal(fit.gx, fit.gy);
+        let (t, w) = (&wk.t[..k], &wk.w[..k]);
+        let (theta, phi, c, cost) = rim.solve(t, w, n0, self.opts.normalize, &mut wk.rim);
+        if cost < fit.cost {
+            wk.fresh = false;
+            Rim::to_fit(t0, theta, phi, c, cost)
+        } else {
+            fit
+        }
     }
 
     /// Remember this pixel's solution for the next one.
@@ -403,52 +562,18 @@ impl<'a> Solver<'a> {
         p.fit()
     }
 
-    /// Coherence shortcut: Gauss–Newton from the previous pixel's solution extrapolated
-    /// by its step, accepted when its relative residual is at most 1.5 × that of the last
-    /// pixel matched or confirmed by the tree (or 0.3%). Every 16 pixels it is checked
-    /// against the tree: kept (and its residual becomes the reference) when the best tree
-    /// candidate lies within 1.5 px of it or fits worse.
-    fn warm_start(&self, wk: &mut Work) -> Option<Fit> {
-        let warm = wk.s.warm?;
-        let start = Fit {
-            gx: warm.gx + warm.dgx,
-            gy: warm.gy + warm.dgy,
-            coef: [1.0, 0.0],
-            cost: f32::INFINITY,
-        };
-        let fit = self.refine(false, start, wk);
-        let rel = relative_to(wk.norm, fit.cost);
-        if rel > (1.5 * wk.s.rel_ref).max(WARM_FLOOR) {
-            return None;
-        }
-        let since = if warm.since_tree + 1 >= WARM_RUN {
-            let index = self.index.as_ref()?;
-            let e = self.tree_match(index, Some(&fit), wk);
-            let far = (e.gx - fit.gx).powi(2) + (e.gy - fit.gy).powi(2) > 1.5 * 1.5;
-            if far && e.cost < fit.cost {
-                return None;
-            }
-            wk.s.rel_ref = rel;
-            0
-        } else {
-            warm.since_tree + 1
-        };
-        if let Some(w) = wk.s.warm.as_mut() {
-            w.since_tree = since;
-        }
-        Some(fit)
-    }
-
     /// Brightness below which a target sample counts as dark, for a fit.
     fn level(&self, fit: &Fit) -> f32 {
         let reference = fit.coef[0] * self.peaks[0] + fit.coef[1] * self.peaks[1];
         self.opts.shadow_level * reference
     }
 
-    /// Nearest entries in the index, re-ranked on the full K-dimensional cost. The
-    /// search is seeded with the previous pixel's candidates; when checking a fit `near`,
-    /// with the entries around it, and only the nearest entry is looked for.
-    fn tree_match(&self, index: &Index, near: Option<&Fit>, wk: &mut Work) -> Fit {
+    /// Nearest entries in the index (the `candidates` nearest in the projected space),
+    /// re-ranked on the full K-dimensional cost with the weights in `wk.w` (`weighted`)
+    /// or all lights; the best one as a fit. The search is seeded with the previous pixel's
+    /// candidates, or with the entries around `near` when checking a fit (seeds only
+    /// speed the search up: the candidates are the same).
+    fn tree_match(&self, index: &Index, near: Option<&Fit>, weighted: bool, wk: &mut Work) -> Fit {
         let k = self.model.k;
         let t = &wk.t[..k];
         let query = self.query(t, index, &mut wk.q);
@@ -465,19 +590,22 @@ impl<'a> Solver<'a> {
                 }
             }
         }
-        // a check only needs the nearest entry
-        let m = if near.is_some() {
-            1
-        } else {
-            self.opts.candidates
-        };
-        let cands = index.nearest(query, m, &wk.s.seeds);
+        let cands = index.nearest(query, self.opts.candidates, &wk.s.seeds);
         wk.s.seeds.clear();
         wk.s.seeds.extend_from_slice(&cands.ids[..cands.len]);
+        self.best_of_seeds(weighted, wk)
+    }
+
+    /// The entry of `wk.s.seeds` (the last tree search's candidates) that fits the target
+    /// best with the weights in `wk.w` (`weighted`) or all lights, as a fit.
+    fn best_of_seeds(&self, weighted: bool, wk: &Work) -> Fit {
+        let k = self.model.k;
+        let t = &wk.t[..k];
+        let w = weighted.then_some(&wk.w[..k]);
         let mut best = (f32::INFINITY, [1.0, 0.0], u32::MAX);
-        for &e in &cands.ids[..cands.len] {
+        for &e in &wk.s.seeds {
             let tuple = &self.model.tables[0].entries.tuples[e as usize * k..(e as usize + 1) * k];
-            let (coef, cost) = self.model.fit_with(t, None, tuple, tuple);
+            let (coef, cost) = self.model.fit_with(t, w, tuple, tuple);
             if cost < best.0 {
                 best = (cost, coef, e);
             }
@@ -524,7 +652,10 @@ impl<'a> Solver<'a> {
         } else {
             f32::INFINITY
         };
-        if !self.model.is_mix() && rel <= (1.5 * wk.s.rel_ref).max(WARM_FLOOR) {
+        if !self.model.is_mix()
+            && rel <= (1.5 * wk.s.rel_ref).max(WARM_FLOOR)
+            && local.cost <= self.best_of_seeds(true, wk).cost
+        {
             return local;
         }
         let global = self.exhaustive(true, wk);

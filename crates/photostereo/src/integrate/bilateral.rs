@@ -1,0 +1,286 @@
+//! Bilateral normal integration (BiNI): depth with discontinuities, orthographic or
+//! perspective.
+//!
+//! X. Cao, H. Santo, B. Shi, F. Okura, Y. Matsushita, "Bilateral Normal Integration",
+//! ECCV 2022.
+//!
+//! # Equations
+//!
+//! Every mask pixel i has a target gradient per column step g_h and per row step g_v of
+//! the unknown v, and a scale a_h, a_v (the "n_z" of the paper's equations):
+//!
+//! * orthographic: v = z (pixel units, larger = closer), g_h = p = −n_x/n_z,
+//!   g_v = −q = n_y/n_z, a_h = a_v = n_z;
+//! * perspective ([`Camera`]): v = f_x · ln t with t the distance along the optical
+//!   axis. With n' the normal in the intrinsics frame and d the pixel's ray
+//!   (see [`super::camera`]), ñ_c = f_x (n'·d), ñ_r = f_y (n'·d), and tangency of the
+//!   surface point t·d gives ∂(ln t)/∂c = −n'_x/ñ_c, ∂(ln t)/∂r = −n'_y/ñ_r; so
+//!   g_h = −f_x n'_x/ñ_c, g_v = −f_x n'_y/ñ_r, a_h = ñ_c/f_x, a_v = ñ_r/f_x.
+//!
+//! Each pixel writes one-sided equations to its four neighbours (where they are in the
+//! mask), e.g. a_h (v_right − v_i − g_h) = 0 and a_h (v_i − v_left − g_h) = 0, and
+//! minimises
+//!
+//! E(v) = Σ_i c_i [ w_i a_h² (v_right − v_i − g_h)² + (1 − w_i) a_h² (v_i − v_left − g_h)²
+//!               + u_i a_v² (v_down − v_i − g_v)² + (1 − u_i) a_v² (v_i − v_up − g_v)² ]
+//!
+//! with c_i the optional per-pixel confidence. The bilateral weights come from the
+//! sigmoid σ_k(x) = 1/(1 + e^(−kx)) of the squared one-sided differences,
+//! w_i = σ_k((a_h(v_i − v_left))² − (a_h(v_right − v_i))²) and likewise u_i: where the
+//! depth jumps on one side, that side's equation is switched off and the surface is
+//! free to break there. Iteratively reweighted least squares: start from w = u = 1/2
+//! (which is plain least squares), solve for v with the weights fixed (a weighted graph
+//! Laplacian, [`super::multigrid`], warm-started from the previous v), update the
+//! weights, stop when |E_new − E_old| / E_old < `tol` or after `max_iter` iterations.
+//! Weights are kept in [1e-6, 1 − 1e-6] so that no part of the grid is ever cut loose
+//! numerically. A missing neighbour counts as a zero difference in the weights, as in
+//! the paper's implementation.
+//!
+//! An edge (i, j) is reported as a discontinuity (and the mesh leaves it out) when the
+//! solved step disagrees with the gradients of both ends by more than [`CUT`] (in the
+//! scaled units of the equations, about pixels): |a_i (v_j − v_i − g_i)| > CUT and
+//! |a_j (v_j − v_i − g_j)| > CUT.
+
+use super::camera::Camera;
+use super::lsq::Assembled;
+use super::support::Components;
+use crate::error::Result;
+use crate::image::{Mask, NormalMap};
+use crate::progress::Progress;
+
+/// Scaled step residual (about pixels) above which an edge counts as a discontinuity.
+pub const CUT: f64 = 1.0;
+/// Relative residual of the inner solves while reweighting (warm-started), and of a
+/// single solve (perspective [`super::Method::Lsq`], where a loose solve would leave
+/// smooth errors).
+const INNER_TOL: (f64, f64) = (1e-4, super::lsq::TOL);
+/// Smallest bilateral weight.
+const WEIGHT_FLOOR: f64 = 1e-6;
+
+/// Per-pixel targets and scales (0 outside the mask); see the module documentation.
+#[derive(Clone, Debug)]
+pub(crate) struct Field {
+    pub g_h: Vec<f64>,
+    pub g_v: Vec<f64>,
+    pub a_h: Vec<f64>,
+    pub a_v: Vec<f64>,
+}
+
+impl Field {
+    fn zeros(n: usize) -> Self {
+        Field {
+            g_h: vec![0.0; n],
+            g_v: vec![0.0; n],
+            a_h: vec![0.0; n],
+            a_v: vec![0.0; n],
+        }
+    }
+
+    /// Orthographic field from gradients p, q (0 outside the mask, already clean).
+    pub fn orthographic(p: &[f32], q: &[f32], mask: &Mask) -> Self {
+        let mut f = Field::zeros(mask.len());
+        for i in (0..mask.len()).filter(|&i| mask.data[i]) {
+            let (pi, qi) = (p[i] as f64, q[i] as f64);
+            let nz = 1.0 / (1.0 + pi * pi + qi * qi).sqrt();
+            f.g_h[i] = pi;
+            f.g_v[i] = -qi;
+            f.a_h[i] = nz;
+            f.a_v[i] = nz;
+        }
+        f
+    }
+
+    /// Perspective field from normals; returns the field and the clamped count (n'·d
+    /// above −`min_nz`, or a NaN component).
+    pub fn perspective(
+        normals: &NormalMap,
+        mask: &Mask,
+        cam: &Camera,
+        min_nz: f32,
+    ) -> (Self, usize) {
+        let w = mask.width;
+        let mut f = Field::zeros(mask.len());
+        let mut clamped = 0;
+        for i in (0..mask.len()).filter(|&i| mask.data[i]) {
+            let n = normals.data[i];
+            if n.iter().any(|v| !v.is_finite()) {
+                clamped += 1;
+                f.a_h[i] = min_nz as f64;
+                f.a_v[i] = min_nz as f64;
+                continue;
+            }
+            let len = ((n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) as f64)
+                .sqrt()
+                .max(1e-12);
+            let np = [n[0] as f64 / len, -n[1] as f64 / len, -n[2] as f64 / len];
+            let d = cam.ray(i / w, i % w);
+            let mut nd = np[0] * d[0] + np[1] * d[1] + np[2] * d[2];
+            if nd > -(min_nz as f64) {
+                clamped += 1;
+                nd = -(min_nz as f64).max(1e-6);
+            }
+            f.g_h[i] = -np[0] / nd;
+            f.g_v[i] = -cam.fx * np[1] / (cam.fy * nd);
+            f.a_h[i] = nd;
+            f.a_v[i] = cam.fy / cam.fx * nd;
+        }
+        (f, clamped)
+    }
+}
+
+/// Parameters of the iteration.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Params {
+    pub k: f64,
+    pub max_iter: usize,
+    pub tol: f64,
+}
+
+/// Result of [`integrate`].
+#[derive(Clone, Debug)]
+pub(crate) struct Solution {
+    /// v on the whole grid (0 outside the mask).
+    pub v: Vec<f64>,
+    /// IRLS iterations.
+    pub iterations: usize,
+    /// Conjugate-gradient iterations, all inner solves together.
+    pub cg_iterations: usize,
+    /// Final relative energy change.
+    pub relative_energy: f64,
+    /// Cut flags of the edges to the right and down.
+    pub cut_east: Vec<bool>,
+    pub cut_south: Vec<bool>,
+}
+
+/// The neighbour flags of pixel i: right, left, down, up inside the mask.
+#[inline]
+fn neighbours(mask: &Mask, i: usize) -> [bool; 4] {
+    let (w, h) = (mask.width, mask.height);
+    let (r, c) = (i / w, i % w);
+    [
+        c + 1 < w && mask.data[i + 1],
+        c > 0 && mask.data[i - 1],
+        r + 1 < h && mask.data[i + w],
+        r > 0 && mask.data[i - w],
+    ]
+}
+
+fn sigmoid(x: f64, k: f64) -> f64 {
+    (1.0 / (1.0 + (-k * x).exp())).clamp(WEIGHT_FLOOR, 1.0 - WEIGHT_FLOOR)
+}
+
+/// Assemble the normal equations for fixed weights (`wr`: right, `wd`: down).
+fn assemble(f: &Field, conf: &[f64], mask: &Mask, wr: &[f64], wd: &[f64]) -> Assembled {
+    let w = mask.width;
+    let mut sys = Assembled::new(w, mask.height);
+    for i in (0..mask.len()).filter(|&i| mask.data[i]) {
+        let [right, _, down, _] = neighbours(mask, i);
+        if right {
+            let j = i + 1;
+            sys.add_edge(i, true, conf[i] * wr[i] * f.a_h[i] * f.a_h[i], f.g_h[i]);
+            sys.add_edge(
+                i,
+                true,
+                conf[j] * (1.0 - wr[j]) * f.a_h[j] * f.a_h[j],
+                f.g_h[j],
+            );
+        }
+        if down {
+            let j = i + w;
+            sys.add_edge(i, false, conf[i] * wd[i] * f.a_v[i] * f.a_v[i], f.g_v[i]);
+            sys.add_edge(
+                i,
+                false,
+                conf[j] * (1.0 - wd[j]) * f.a_v[j] * f.a_v[j],
+                f.g_v[j],
+            );
+        }
+    }
+    sys
+}
+
+/// Update the weights from v and return the energy with the new weights.
+fn reweight(
+    f: &Field,
+    conf: &[f64],
+    mask: &Mask,
+    v: &[f64],
+    k: f64,
+    wr: &mut [f64],
+    wd: &mut [f64],
+) -> f64 {
+    let w = mask.width;
+    let mut energy = 0.0;
+    for i in (0..mask.len()).filter(|&i| mask.data[i]) {
+        let [right, left, down, up] = neighbours(mask, i);
+        let d = |ok: bool, a: usize, b: usize| if ok { v[a] - v[b] } else { 0.0 };
+        let (dr, dl) = (d(right, i + 1, i), d(left, i, i.wrapping_sub(1)));
+        let (dd, du) = (d(down, i + w, i), d(up, i, i.wrapping_sub(w)));
+        let (ah, av) = (f.a_h[i], f.a_v[i]);
+        wr[i] = sigmoid(ah * ah * (dl * dl - dr * dr), k);
+        wd[i] = sigmoid(av * av * (du * du - dd * dd), k);
+        let sq = |ok: bool, x: f64, g: f64| if ok { (x - g) * (x - g) } else { 0.0 };
+        let e =
+            ah * ah * (wr[i] * sq(right, dr, f.g_h[i]) + (1.0 - wr[i]) * sq(left, dl, f.g_h[i]))
+                + av * av * (wd[i] * sq(down, dd, f.g_v[i]) + (1.0 - wd[i]) * sq(up, du, f.g_v[i]));
+        energy += conf[i] * e;
+    }
+    energy
+}
+
+/// Run BiNI on a field; `conf` holds the per-pixel confidences (1 without a map).
+pub(crate) fn integrate(
+    f: &Field,
+    conf: &[f64],
+    mask: &Mask,
+    comps: &Components,
+    params: Params,
+    progress: &dyn Progress,
+) -> Result<Solution> {
+    let n = mask.len();
+    let (mut wr, mut wd) = (vec![0.5; n], vec![0.5; n]);
+    let mut v = vec![0.0; n];
+    let mut energy = f64::INFINITY;
+    let mut out = Solution {
+        v: Vec::new(),
+        iterations: 0,
+        cg_iterations: 0,
+        relative_energy: f64::NAN,
+        cut_east: Vec::new(),
+        cut_south: Vec::new(),
+    };
+    progress.start("bini: reweighted least squares", params.max_iter as u64);
+    while out.iterations < params.max_iter.max(1) {
+        let mut sys = assemble(f, conf, mask, &wr, &wd);
+        sys.pin(comps);
+        let tol = if params.max_iter <= 1 {
+            INNER_TOL.1
+        } else {
+            INNER_TOL.0
+        };
+        out.cg_iterations += sys.solve(&mut v, tol, mask)?;
+        out.iterations += 1;
+        progress.advance(1);
+        let new = reweight(f, conf, mask, &v, params.k, &mut wr, &mut wd);
+        out.relative_energy = (new - energy).abs() / energy;
+        energy = new;
+        if out.relative_energy < params.tol || energy == 0.0 {
+            break;
+        }
+    }
+    progress.finish();
+    let w = mask.width;
+    // A discontinuity: the solved step disagrees with both ends' own gradients.
+    let off = |i: usize, j: usize, g: &[f64], a: &[f64]| {
+        let dv = v[j] - v[i];
+        (a[i] * (dv - g[i])).abs() > CUT && (a[j] * (dv - g[j])).abs() > CUT
+    };
+    out.cut_east = (0..n)
+        .map(|i| mask.data[i] && neighbours(mask, i)[0] && off(i, i + 1, &f.g_h, &f.a_h))
+        .collect();
+    out.cut_south = (0..n)
+        .map(|i| mask.data[i] && neighbours(mask, i)[2] && off(i, i + w, &f.g_v, &f.a_v))
+        .collect();
+    out.v = v;
+    Ok(out)
+}

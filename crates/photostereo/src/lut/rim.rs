@@ -1,0 +1,316 @@
+//! The table past its last clean ring: normals from the table's edge to 90°.
+//!
+//! The table's entries stop `rim` pixels inside the occluding circle (θ_c =
+//! asin((R − rim)/R), 78.5° for R = 100 and a 2 px rim): the pixels of that band are
+//! left out explicitly, because they mix the sphere with the background and their
+//! footprint spans normals up to 90°. A target normal beyond θ_c would be clamped to the
+//! table's edge. Instead, each light's reflectance is extended past θ_c by a smooth
+//! model over the normal sphere fitted to the outer rings of clean entries:
+//!
+//! I_k(n) = max(0, β_k(φ) · n),
+//!
+//! a local linear function of the unit normal n (exact for a Lambertian surface, lit or
+//! not, and a first-order model of any smooth reflectance) whose coefficients β_k are
+//! fitted by least squares, per sector of azimuth φ, to the entries with polar angle θ
+//! in [θ_c − 12°, θ_c] and lit by light k (above 1% of the table's brightest sample);
+//! a light dark in the whole sector stays dark beyond it (n·l only decreases towards the
+//! rim where the light is behind the meridian). β_k is interpolated linearly in φ
+//! between sector centres (sectors of about 8 px of arc, each fitted on twice its
+//! width).
+//!
+//! A target pixel whose table fit ends within 1 px of the table's edge is refitted on
+//! this model over (θ, φ), θ ∈ [θ_c − 12°, 90°]: a scan of 13 values of θ at the table
+//! fit's azimuth, then Gauss–Newton (analytic Jacobian) from the best, with the same
+//! lights and scale as the table fit; the rim fit replaces the table fit only when its
+//! residual is lower.
+
+use super::model::Fit;
+use super::table::Table;
+
+/// Polar-angle width (radians) of the ring of entries the model is fitted to.
+const RING: f64 = 12.0 * std::f64::consts::PI / 180.0;
+/// Arc length (pixels) of one azimuth sector.
+const SECTOR_PX: f64 = 8.0;
+/// Fewest lit entries that make a sector's fit for one light.
+const MIN_SAMPLES: usize = 6;
+/// Samples below this fraction of the table's peak count as unlit.
+const DARK: f32 = 0.01;
+/// Gauss–Newton iterations of a rim fit.
+const ITERATIONS: usize = 8;
+/// Steps of the scan of θ that starts a rim fit.
+const SCAN: usize = 12;
+
+/// The fitted extension of one table (see the module docs).
+pub(crate) struct Rim {
+    k: usize,
+    sectors: usize,
+    /// β of each sector and light, `beta[(s * k + light)]`.
+    beta: Vec<[f32; 3]>,
+    /// Polar angle of the table's last clean ring (radians).
+    pub theta_clean: f64,
+}
+
+/// Workspace of one rim fit.
+pub(crate) struct RimBuf {
+    p: Vec<f32>,
+    px: Vec<f32>,
+    py: Vec<f32>,
+}
+
+impl RimBuf {
+    pub fn new(k: usize) -> Self {
+        RimBuf {
+            p: vec![0.0; k],
+            px: vec![0.0; k],
+            py: vec![0.0; k],
+        }
+    }
+}
+
+/// Unit normal at polar angle θ and azimuth φ (x right, y up, z to the camera).
+fn normal(theta: f64, phi: f64) -> [f64; 3] {
+    let s = theta.sin();
+    [s * phi.cos(), s * phi.sin(), theta.cos()]
+}
+
+impl Rim {
+    /// Fit the model to the outer rings of `table`'s entries; `None` when the table is too
+    /// small to hold a ring.
+    pub fn fit(table: &Table) -> Option<Rim> {
+        let (k, r) = (table.k, table.circle.radius);
+        let rs = table.search_radius();
+        let theta_clean = (rs / r).clamp(0.0, 1.0).asin();
+        let theta_lo = theta_clean - RING;
+        let sectors = ((std::f64::consts::TAU * rs / SECTOR_PX).round() as usize).clamp(12, 360);
+        let width = std::f64::consts::TAU / sectors as f64;
+        let dark = DARK * table.peak();
+        // per sector and light: Σ n nᵀ (6 values) and Σ I n (3 values) over lit entries
+        let mut acc = vec![([0.0f64; 6], [0.0f64; 3], 0usize); sectors * k];
+        let e = &table.entries;
+        for (i, n) in e.normals.iter().enumerate() {
+            let n = [n[0] as f64, n[1] as f64, n[2] as f64];
+            let theta = n[2].clamp(-1.0, 1.0).acos();
+            if theta < theta_lo {
+                continue;
+            }
+            let phi = n[1].atan2(n[0]);
+            let centre = (phi / width).round() as i64;
+            for s in centre - 1..=centre + 1 {
+                let d = phi - s as f64 * width;
+                let d = (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                    - std::f64::consts::PI;
+                if d.abs() > width {
+                    continue;
+                }
+                let s = s.rem_euclid(sectors as i64) as usize;
+                let tuple = &e.tuples[i * k..(i + 1) * k];
+                for (light, &v) in tuple.iter().enumerate() {
+                    if v <= dark {
+                        continue;
+                    }
+                    let (m, b, count) = &mut acc[s * k + light];
+                    let outer = [
+                        n[0] * n[0],
+                        n[0] * n[1],
+                        n[0] * n[2],
+                        n[1] * n[1],
+                        n[1] * n[2],
+                        n[2] * n[2],
+                    ];
+                    m.iter_mut().zip(outer).for_each(|(a, o)| *a += o);
+                    (0..3).for_each(|j| b[j] += v as f64 * n[j]);
+                    *count += 1;
+                }
+            }
+        }
+        let beta = acc
+            .iter()
+            .map(|(m, b, count)| {
+                if *count < MIN_SAMPLES {
+                    return [0.0; 3];
+                }
+                solve3(m, b).map_or([0.0; 3], |x| x.map(|v| v as f32))
+            })
+            .collect();
+        (theta_lo > 0.0).then_some(Rim {
+            k,
+            sectors,
+            beta,
+            theta_clean,
+        })
+    }
+
+    /// The model's tuple at (θ, φ) into `b.p`, and when `grad`, its derivatives with
+    /// respect to θ and φ into `b.px`, `b.py` (0 where the model is clamped at 0).
+    fn eval(&self, theta: f64, phi: f64, b: &mut RimBuf, grad: bool) {
+        let (st, ct, sp, cp) = (theta.sin(), theta.cos(), phi.sin(), phi.cos());
+        let n = [(st * cp) as f32, (st * sp) as f32, ct as f32];
+        let nt = [(ct * cp) as f32, (ct * sp) as f32, -st as f32];
+        let np = [(-st * sp) as f32, (st * cp) as f32, 0.0];
+        let width = std::f64::consts::TAU / self.sectors as f64;
+        let u = phi.rem_euclid(std::f64::consts::TAU) / width;
+        let s0 = (u.floor() as usize) % self.sectors;
+        let s1 = (s0 + 1) % self.sectors;
+        let f = (u - u.floor()) as f32;
+        let inv_width = (1.0 / width) as f32;
+        let (b0, b1) = (
+            &self.beta[s0 * self.k..(s0 + 1) * self.k],
+            &self.beta[s1 * self.k..(s1 + 1) * self.k],
+        );
+        let dot = |a: &[f32; 3], v: [f32; 3]| a[0] * v[0] + a[1] * v[1] + a[2] * v[2];
+        for i in 0..self.k {
+            let beta: [f32; 3] = std::array::from_fn(|j| (1.0 - f) * b0[i][j] + f * b1[i][j]);
+            let v = dot(&beta, n);
+            b.p[i] = v.max(0.0);
+            if grad {
+                let lit = v > 0.0;
+                let dbeta: [f32; 3] = std::array::from_fn(|j| (b1[i][j] - b0[i][j]) * inv_width);
+                b.px[i] = if lit { dot(&beta, nt) } else { 0.0 };
+                b.py[i] = if lit {
+                    dot(&beta, np) + dot(&dbeta, n)
+                } else {
+                    0.0
+                };
+            }
+        }
+    }
+
+    /// Scale (1, or fitted and ≥ 0 when `scale`) and weighted cost of `p` against `t`.
+    fn cost(t: &[f32], w: &[f32], p: &[f32], scale: bool) -> (f32, f32) {
+        let c = if scale {
+            let (mut tp, mut pp) = (0.0f32, 0.0f32);
+            for i in 0..t.len() {
+                tp += w[i] * t[i] * p[i];
+                pp += w[i] * p[i] * p[i];
+            }
+            if pp > 0.0 {
+                (tp / pp).max(0.0)
+            } else {
+                0.0
+            }
+        } else {
+            1.0
+        };
+        let cost = (0..t.len()).map(|i| w[i] * (t[i] - c * p[i]).powi(2)).sum();
+        (c, cost)
+    }
+
+    /// Fit (θ, φ) to the target `t` with weights `w` from the table fit's normal `n0`: a
+    /// scan of θ at the table fit's azimuth, then Gauss–Newton from the best point;
+    /// returns (θ, φ, scale, cost).
+    pub fn solve(
+        &self,
+        t: &[f32],
+        w: &[f32],
+        n0: [f32; 3],
+        scale: bool,
+        b: &mut RimBuf,
+    ) -> (f64, f64, f32, f32) {
+        let lo = self.theta_clean - RING;
+        let hi = std::f64::consts::FRAC_PI_2;
+        let phi = (n0[1] as f64).atan2(n0[0] as f64);
+        let mut best = (lo, f32::INFINITY);
+        for j in 0..=SCAN {
+            let theta = lo + (hi - lo) * j as f64 / SCAN as f64;
+            self.eval(theta, phi, b, false);
+            let (_, cost) = Self::cost(t, w, &b.p, scale);
+            if cost < best.1 {
+                best = (theta, cost);
+            }
+        }
+        self.gauss_newton(t, w, best.0, phi, scale, b)
+    }
+
+    /// Gauss–Newton over (θ, φ) (variable projection for the scale: the Jacobian of c·I
+    /// is taken at fixed c, which is exact at a converged c), θ kept in
+    /// [θ_c − 12°, 90°], step halving.
+    fn gauss_newton(
+        &self,
+        t: &[f32],
+        w: &[f32],
+        mut theta: f64,
+        mut phi: f64,
+        scale: bool,
+        b: &mut RimBuf,
+    ) -> (f64, f64, f32, f32) {
+        let (lo, hi) = (self.theta_clean - RING, std::f64::consts::FRAC_PI_2);
+        self.eval(theta, phi, b, true);
+        let (mut c, mut cost) = Self::cost(t, w, &b.p, scale);
+        for _ in 0..ITERATIONS {
+            let (mut h11, mut h12, mut h22, mut g1, mut g2) = (0.0f64, 0.0, 0.0, 0.0, 0.0);
+            for i in 0..t.len() {
+                let jx = (c * b.px[i]) as f64;
+                let jy = (c * b.py[i]) as f64;
+                let r = (t[i] - c * b.p[i]) as f64;
+                let wi = w[i] as f64;
+                h11 += wi * jx * jx;
+                h12 += wi * jx * jy;
+                h22 += wi * jy * jy;
+                g1 += wi * jx * r;
+                g2 += wi * jy * r;
+            }
+            let damp = 1e-6 * (h11 + h22) + 1e-18;
+            let (a, d) = (h11 + damp, h22 + damp);
+            let det = a * d - h12 * h12;
+            if det.is_nan() || det <= 0.0 {
+                break;
+            }
+            let mut dt = (d * g1 - h12 * g2) / det;
+            let mut dp = (a * g2 - h12 * g1) / det;
+            let mut moved = false;
+            for _ in 0..4 {
+                let (nt, np) = ((theta + dt).clamp(lo, hi), phi + dp);
+                self.eval(nt, np, b, true);
+                let (nc, ncost) = Self::cost(t, w, &b.p, scale);
+                if ncost <= cost {
+                    (dt, dp) = (nt - theta, np - phi);
+                    (theta, phi, c, cost) = (nt, np, nc, ncost);
+                    moved = true;
+                    break;
+                }
+                dt *= 0.5;
+                dp *= 0.5;
+            }
+            if !moved || dt * dt + dp * dp < 1e-10 {
+                break;
+            }
+        }
+        (theta, phi, c, cost)
+    }
+
+    /// The rim fit as a table fit: the grid point whose sphere normal is that of (θ, φ).
+    pub fn to_fit(table: &Table, theta: f64, phi: f64, c: f32, cost: f32) -> Fit {
+        let n = normal(theta, phi);
+        let circle = &table.circle;
+        let (gx, gy) = table.to_grid(
+            circle.cx + circle.radius * n[0],
+            circle.cy - circle.radius * n[1],
+        );
+        Fit {
+            gx,
+            gy,
+            coef: [c, 0.0],
+            cost,
+        }
+    }
+}
+
+/// Solve the symmetric 3×3 system given by its upper triangle (xx, xy, xz, yy, yz, zz).
+fn solve3(m: &[f64; 6], b: &[f64; 3]) -> Option<[f64; 3]> {
+    let a = [[m[0], m[1], m[2]], [m[1], m[3], m[4]], [m[2], m[4], m[5]]];
+    let det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+        - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+        + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+    let scale = m[0] + m[3] + m[5];
+    if det.is_nan() || det.abs() <= 1e-12 * scale.powi(3) {
+        return None;
+    }
+    let col = |j: usize| -> f64 {
+        let mut c = a;
+        (0..3).for_each(|i| c[i][j] = b[i]);
+        c[0][0] * (c[1][1] * c[2][2] - c[1][2] * c[2][1])
+            - c[0][1] * (c[1][0] * c[2][2] - c[1][2] * c[2][0])
+            + c[0][2] * (c[1][0] * c[2][1] - c[1][1] * c[2][0])
+    };
+    Some([col(0) / det, col(1) / det, col(2) / det])
+}

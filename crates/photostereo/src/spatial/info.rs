@@ -1,0 +1,233 @@
+//! The evidence of each pixel about its own normal: the match u = (n_x, n_y) and the
+//! information matrix A = Jᵀ W J of the cost ‖t − c·I(u)‖²_W around it, with J = c·∂I/∂u
+//! (the table's intensity field differentiated in normal space) or, for Lambertian
+//! pixels, J = ρ·∂(L n)/∂u; W = diag(1/σ²(I_k)) from the noise model. A pixel's normal
+//! then has covariance C = A⁻¹ in (n_x, n_y); its angular standard error is
+//! √tr(M C) with M = I + u uᵀ / n_z² (the metric of the unit sphere in these coordinates).
+
+use super::noise::NoiseModel;
+use crate::image::{GrayImage, ImageStack, Lights, Mask, NormalMap};
+use crate::lut::Table;
+use rayon::prelude::*;
+
+/// Angular standard errors are capped at this (degrees): no information.
+pub const MAX_SIGMA_DEG: f32 = 90.0;
+/// n_z² is floored at this in the angular metric (grazing normals).
+const MIN_NZ2: f32 = 0.01;
+
+/// The per-pixel evidence (dense arrays over the image, zero outside the mask).
+#[derive(Clone, Debug)]
+pub struct Evidence {
+    /// Image width.
+    pub width: usize,
+    /// Image height.
+    pub height: usize,
+    /// (n_x, n_y) of the per-pixel match.
+    pub u: Vec<[f32; 2]>,
+    /// Information matrix (A₁₁, A₁₂, A₂₂) in (n_x, n_y), 1/(unit normal component)².
+    pub a: Vec<[f32; 3]>,
+}
+
+impl Evidence {
+    /// Angular standard error (degrees) of each pixel's own match, capped at
+    /// [`MAX_SIGMA_DEG`]; 0 outside the mask.
+    pub fn sigma_deg(&self, mask: &Mask) -> GrayImage {
+        GrayImage::from_fn(self.width, self.height, |r, c| {
+            let i = r * self.width + c;
+            if *mask.get(r, c) {
+                angular_sigma_deg(self.u[i], self.a[i])
+            } else {
+                0.0
+            }
+        })
+    }
+}
+
+/// √tr(M A⁻¹) in degrees (see the module docs).
+pub fn angular_sigma_deg(u: [f32; 2], a: [f32; 3]) -> f32 {
+    let det = a[0] as f64 * a[2] as f64 - (a[1] as f64).powi(2);
+    let tr = (a[0] + a[2]) as f64;
+    if det.is_nan() || det <= 1e-12 * tr * tr || det <= 0.0 {
+        return MAX_SIGMA_DEG;
+    }
+    let (c11, c12, c22) = (a[2] as f64 / det, -a[1] as f64 / det, a[0] as f64 / det);
+    let nz2 = (1.0 - (u[0] * u[0] + u[1] * u[1]) as f64).max(MIN_NZ2 as f64);
+    let (x, y) = (u[0] as f64, u[1] as f64);
+    let tr_mc = c11 + c22 + (x * x * c11 + 2.0 * x * y * c12 + y * y * c22) / nz2;
+    (tr_mc.max(0.0).sqrt().to_degrees() as f32).min(MAX_SIGMA_DEG)
+}
+
+/// Accumulate w·J Jᵀ of one light into `a`.
+#[inline]
+fn add(a: &mut [f64; 3], j: [f64; 2], w: f64) {
+    a[0] += w * j[0] * j[0];
+    a[1] += w * j[0] * j[1];
+    a[2] += w * j[1] * j[1];
+}
+
+/// Evidence of a lookup: `normals` from [`crate::lut::solve`] with `table`, `albedo` its
+/// albedo ratio (normalised matching) or `None` (c = 1). Lights the lookup would treat as
+/// cast-shadowed (t_k below `shadow_level` · c · peak while the match is lit) are left out.
+pub fn from_table(
+    stack: &ImageStack,
+    mask: &Mask,
+    table: &Table,
+    normals: &NormalMap,
+    albedo: Option<&GrayImage>,
+    noise: &NoiseModel,
+    shadow_level: f32,
+) -> Evidence {
+    let (w, h, k) = (stack.width, stack.height, stack.k);
+    let px = TablePixel::new(table, noise, shadow_level, albedo.is_some());
+    let mut u = vec![[0.0f32; 2]; w * h];
+    let mut a = vec![[0.0f32; 3]; w * h];
+    u.par_chunks_mut(w)
+        .zip(a.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(r, (urow, arow))| {
+            let mut buf = vec![0.0f32; 5 * k];
+            for c in 0..w {
+                if !*mask.get(r, c) {
+                    continue;
+                }
+                let n = *normals.get(r, c);
+                let scale = albedo.map_or(1.0, |img| *img.get(r, c));
+                urow[c] = [n[0], n[1]];
+                arow[c] = px.information(stack.pixel(r, c), n, scale, &mut buf);
+            }
+        });
+    Evidence {
+        width: w,
+        height: h,
+        u,
+        a,
+    }
+}
+
+/// What the linearisation of a table pixel needs.
+struct TablePixel<'a> {
+    table: &'a Table,
+    noise: &'a NoiseModel,
+    shadow_level: f32,
+    peak: f32,
+    floor: f32,
+    radius: f32,
+    normalized: bool,
+}
+
+impl<'a> TablePixel<'a> {
+    fn new(table: &'a Table, noise: &'a NoiseModel, shadow_level: f32, normalized: bool) -> Self {
+        let peak = table.peak();
+        TablePixel {
+            table,
+            noise,
+            shadow_level,
+            peak,
+            floor: (1e-5 * peak.max(1e-12)).powi(2),
+            radius: table.circle.radius as f32,
+            normalized,
+        }
+    }
+
+    /// Information JᵀWJ (A₁₁, A₁₂, A₂₂) of the pixel's cost at normal `n` with
+    /// brightness `scale`.
+    fn information(&self, t: &[f32], n: [f32; 3], scale: f32, buf: &mut [f32]) -> [f32; 3] {
+        let k = t.len();
+        let (gx, gy) = self.table.normal_to_grid(n);
+        let (gx, gy) = self.table.clamp_grid(gx, gy);
+        let (v, rest) = buf.split_at_mut(k);
+        let (xp, rest) = rest.split_at_mut(k);
+        let (xm, rest) = rest.split_at_mut(k);
+        let (yp, ym) = rest.split_at_mut(k);
+        // central differences over ±1 grid pixel: smoother than the bilinear cell's slope
+        let hstep = 1.0;
+        self.table.sample(gx, gy, v, None);
+        self.table.sample(gx + hstep, gy, xp, None);
+        self.table.sample(gx - hstep, gy, xm, None);
+        self.table.sample(gx, gy + hstep, yp, None);
+        self.table.sample(gx, gy - hstep, ym, None);
+        // ∂I/∂n_x = R ∂I/∂gx, ∂I/∂n_y = −R ∂I/∂gy
+        let d = self.radius / (2.0 * hstep as f32);
+        let level = self.shadow_level * scale * self.peak;
+        let mut acc = [0.0f64; 3];
+        let (mut iwi, mut iwj) = (0.0f64, [0.0f64; 2]);
+        for i in 0..k {
+            let pred = scale * v[i];
+            let ti = if t[i].is_finite() { t[i] } else { 0.0 };
+            if ti < level && pred > ti + level {
+                continue; // cast shadow, as the lookup would treat it
+            }
+            let wgt = 1.0 / self.noise.variance(pred).max(self.floor) as f64;
+            let j = [
+                (scale * d * (xp[i] - xm[i])) as f64,
+                (-scale * d * (yp[i] - ym[i])) as f64,
+            ];
+            add(&mut acc, j, wgt);
+            if self.normalized {
+                let vi = v[i] as f64;
+                iwi += wgt * vi * vi;
+                iwj[0] += wgt * vi * j[0];
+                iwj[1] += wgt * vi * j[1];
+            }
+        }
+        if self.normalized && iwi > 0.0 {
+            // the brightness c is a nuisance: project its direction out (variable projection)
+            acc[0] -= iwj[0] * iwj[0] / iwi;
+            acc[1] -= iwj[0] * iwj[1] / iwi;
+            acc[2] -= iwj[1] * iwj[1] / iwi;
+        }
+        [acc[0] as f32, acc[1] as f32, acc[2] as f32]
+    }
+}
+
+/// Evidence of a Lambertian solve: I_k = ρ·(l_k · n) on the lights with l_k · n > 0,
+/// J_k = ρ·(l_xy − l_z·u/n_z).
+pub fn from_lambertian(
+    stack: &ImageStack,
+    mask: &Mask,
+    lights: &Lights,
+    normals: &NormalMap,
+    albedo: &GrayImage,
+    noise: &NoiseModel,
+) -> Evidence {
+    let (w, h) = (stack.width, stack.height);
+    let mut u = vec![[0.0f32; 2]; w * h];
+    let mut a = vec![[0.0f32; 3]; w * h];
+    let floor = 1e-12f32;
+    u.par_chunks_mut(w)
+        .zip(a.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(r, (urow, arow))| {
+            for c in 0..w {
+                if !*mask.get(r, c) {
+                    continue;
+                }
+                let n = *normals.get(r, c);
+                let rho = *albedo.get(r, c) as f64;
+                urow[c] = [n[0], n[1]];
+                let nz = (n[2] as f64).max(0.1);
+                let mut acc = [0.0f64; 3];
+                for (l, li) in lights.directions.iter().zip(&lights.intensities) {
+                    let s = (l[0] * n[0] + l[1] * n[1] + l[2] * n[2]) as f64;
+                    if s <= 0.0 {
+                        continue;
+                    }
+                    let gain = rho * *li as f64;
+                    let pred = (gain * s) as f32;
+                    let wgt = 1.0 / noise.variance(pred).max(floor) as f64;
+                    let j = [
+                        gain * (l[0] as f64 - l[2] as f64 * n[0] as f64 / nz),
+                        gain * (l[1] as f64 - l[2] as f64 * n[1] as f64 / nz),
+                    ];
+                    add(&mut acc, j, wgt);
+                }
+                arow[c] = [acc[0] as f32, acc[1] as f32, acc[2] as f32];
+            }
+        });
+    Evidence {
+        width: w,
+        height: h,
+        u,
+        a,
+    }
+}

@@ -1,0 +1,369 @@
+//! Noise-aware evidence and a spatial stage after the per-pixel lookup: pixels that say
+//! little about their normal take it from the surface around them.
+//!
+//! # Evidence of a pixel ([`info`])
+//!
+//! The noise is measured on the images ([`NoiseModel`]: σ²(I) = σ₀² + g·I, read and
+//! shot noise). Around the lookup's match u = (n_x, n_y) the pixel's cost
+//! ‖t − c·I(u)‖²_W (W = diag 1/σ²(I_k), cast-shadowed lights left out as the lookup does)
+//! is approximated by the quadratic (u − û)ᵀ A (u − û), A = Jᵀ W J, with J = c·∂I/∂u
+//! the table's intensity field differentiated in normal space (central differences on
+//! the sphere images: ∂/∂n_x = R ∂/∂x, ∂/∂n_y = −R ∂/∂y). Its inverse is the covariance
+//! of the normal; the angular standard error σ_θ = √tr(M A⁻¹) (M = I + u uᵀ/n_z², the
+//! metric of the unit sphere in (n_x, n_y)) is returned in degrees
+//! ([`Output::sigma_deg`], `normals_sigma.npy` in the CLI). This is the local Cramér–Rao
+//! bound of the match (Woodham 1994 already derives a local confidence from the
+//! Jacobian); with no information it is capped at 90°.
+//!
+//! # The spatial stage ([`solve`])
+//!
+//! MAP estimate of the field u over the mask:
+//!
+//! E(u) = Σ_i (u_i − û_i)ᵀ A_i (u_i − û_i) + λ Σ_t ω_t ‖u_a − 2u_b + u_c‖²,
+//!
+//! t = (a, b, c) running over consecutive mask pixels along rows and columns, λ = 1/τ²
+//! with τ = [`Options::smoothness`]. The prior penalises the *second* differences of
+//! (n_x, n_y): every field linear in the image position costs nothing — in particular a
+//! sphere, whose (n_x, n_y) = (x, y)/R — so it adds no bias on smoothly curved surfaces
+//! and extrapolates the curvature into dark regions (the rim of a shiny object, where
+//! no light gives a highlight) instead of flattening them. Where a pixel's own
+//! information dominates (clean, well-lit pixels: A_i ≫ λ) it keeps its own normal.
+//! **Discontinuities**: a triple is cut (ω_t = 0) when either of its pairs shows
+//! evidence of a jump: both pixels know their normal to better than `jump`/3 (σ in
+//! normal units) and their matches differ by more than [`Options::jump`]. Without such
+//! evidence a weak pixel is continued from its neighbours. Solved by preconditioned
+//! conjugate gradients, coarse to fine ([`solve`] module docs).
+//!
+//! **Confidence afterwards**: the share of the pixel's posterior information that is its
+//! own, s = tr A / tr(A + P) with P the prior's diagonal, is returned in
+//! [`Output::own_share`]; the confidence is multiplied by s, so pixels decided by their
+//! neighbours (s < 0.5) have a confidence below 0.5 (and `decided_by_neighbours` counts
+//! them). Refs: Woodham, JOSA A 11(11), 1994 (confidence from the Jacobian);
+//! Szeliski, "Fast surface interpolation using hierarchical basis functions", PAMI
+//! 12(6), 1990 (thin-plate priors solved coarse to fine); Hertzmann & Seitz, PAMI 27(8),
+//! 2005 (the lookup).
+
+mod contour;
+pub mod info;
+pub mod noise;
+mod solve;
+
+pub use info::{angular_sigma_deg, Evidence, MAX_SIGMA_DEG};
+pub use noise::NoiseModel;
+
+use crate::error::{Error, Result};
+use crate::image::{GrayImage, ImageStack, Mask, NormalMap};
+use crate::lut::{self, Table};
+use solve::Level;
+
+/// Options of [`solve`] and [`solve_table`].
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// τ: typical second difference of (n_x, n_y) between consecutive pixels on a
+    /// smooth surface (unit-normal components per pixel²); the prior weight is λ = 1/τ².
+    /// Smaller = smoother. Default 0.01.
+    pub smoothness: f32,
+    /// Jump of (n_x, n_y) between neighbouring pixels (unit-normal components) that is
+    /// evidence of a discontinuity when both pixels know their normal well (see the
+    /// module docs). Default 0.15 (about 9°).
+    pub jump: f32,
+    /// Conjugate-gradient iterations per level (the coarsest level gets 300). Default 40.
+    pub iterations: usize,
+    /// Standard error (unit-normal components) of the occluding-contour prior at the
+    /// mask's edge (see the module docs); `None` = no such prior (masks that cut through
+    /// a surface instead of following the object's silhouette). Default `Some(0.01)`.
+    pub contour_sigma: Option<f32>,
+    /// [`solve_table`]: dark level of the cast-shadow rule, as in [`lut::Options::shadow_level`].
+    /// Default 0.03.
+    pub shadow_level: f32,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            smoothness: 0.01,
+            jump: 0.15,
+            iterations: 40,
+            contour_sigma: Some(0.01),
+            shadow_level: lut::Options::default().shadow_level,
+        }
+    }
+}
+
+/// Result of [`solve`]; every image has the target's size, zeros outside the mask.
+#[derive(Clone, Debug)]
+pub struct Output {
+    /// Unit normals after the spatial stage.
+    pub normals: NormalMap,
+    /// Share in [0, 1] of each pixel's own data in its normal (1 = decided by its own
+    /// data, 0 = by its neighbours; see the module docs).
+    pub own_share: GrayImage,
+    /// Angular standard error (degrees) of the normal from the pixel's own data, at the
+    /// returned normal (capped at 90°).
+    pub sigma_deg: GrayImage,
+    /// Summary figures.
+    pub stats: Stats,
+}
+
+/// Summary of a [`solve`] run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Stats {
+    /// Pixels solved.
+    pub pixels: usize,
+    /// Pixels whose own share is below 0.5.
+    pub decided_by_neighbours: usize,
+    /// Triples (row or column) of the prior cut at a discontinuity.
+    pub cut_triples: usize,
+    /// Levels of the coarse-to-fine solve.
+    pub levels: usize,
+    /// Conjugate-gradient iterations, all levels together.
+    pub iterations: usize,
+    /// Mean angular standard error over the mask (degrees).
+    pub mean_sigma_deg: f64,
+}
+
+/// One quadratic pass over the evidence `ev` (from [`info::from_table`] or
+/// [`info::from_lambertian`]): the costs stay the quadratics at the matches.
+///
+/// Errors: evidence of another size than the mask; a smoothness or jump that is not
+/// positive and finite.
+pub fn solve(ev: &Evidence, mask: &Mask, opts: &Options) -> Result<Output> {
+    check(ev, mask, opts)?;
+    let b = rhs(&ev.a, &ev.u);
+    let (x, levels, its) = quadratic(ev, mask, (&ev.a, &b), opts);
+    Ok(finish(ev, mask, &x, &levels, its))
+}
+
+/// The spatial stage after a lookup with one `table` (the lookup's `normals` and, with
+/// normalised matching, its `albedo`): the evidence ([`info::from_table`]), [`solve`],
+/// and the angular standard error of each pixel's own data at the returned normal (so a
+/// dark pixel matched by chance where the table has structure, and moved by its
+/// neighbours, reports how little its data say there).
+pub fn solve_table(
+    stack: &ImageStack,
+    mask: &Mask,
+    table: &Table,
+    lookup: &lut::Output,
+    noise: &NoiseModel,
+    opts: &Options,
+) -> Result<Output> {
+    let albedo = lookup.albedo.as_ref();
+    let ev = info::from_table(
+        stack,
+        mask,
+        table,
+        &lookup.normals,
+        albedo,
+        noise,
+        opts.shadow_level,
+    );
+    let mut out = solve(&ev, mask, opts)?;
+    let at = info::from_table(
+        stack,
+        mask,
+        table,
+        &out.normals,
+        albedo,
+        noise,
+        opts.shadow_level,
+    );
+    out.sigma_deg = at.sigma_deg(mask);
+    out.stats.mean_sigma_deg = mean_in(&out.sigma_deg, mask);
+    Ok(out)
+}
+
+/// Mean of `img` over the `mask` pixels.
+pub fn mean_in(img: &GrayImage, mask: &Mask) -> f64 {
+    let (sum, n) = img
+        .data
+        .iter()
+        .zip(&mask.data)
+        .filter(|(_, &m)| m)
+        .fold((0.0f64, 0usize), |(s, n), (v, _)| (s + *v as f64, n + 1));
+    sum / n.max(1) as f64
+}
+
+/// A u per pixel → A u.
+fn rhs(a: &[[f32; 3]], u: &[[f32; 2]]) -> Vec<[f32; 2]> {
+    a.iter()
+        .zip(u)
+        .map(|(a, u)| [a[0] * u[0] + a[1] * u[1], a[1] * u[0] + a[2] * u[1]])
+        .collect()
+}
+
+/// Solve the quadratic problem with information `a` and right-hand side `b`; returns
+/// the solution, the levels and the iterations.
+fn quadratic(
+    ev: &Evidence,
+    mask: &Mask,
+    (a, b): (&[[f32; 3]], &[[f32; 2]]),
+    opts: &Options,
+) -> (Vec<[f32; 2]>, Vec<Level>, usize) {
+    let (w, h) = (ev.width, ev.height);
+    let lambda = 1.0 / (opts.smoothness * opts.smoothness);
+    let jump2 = opts.jump * opts.jump;
+    let known2 = jump2 / 9.0;
+    // variance of each match in normal units (tr A⁻¹), for the discontinuity test
+    let var: Vec<f32> = ev.a.iter().map(|a| trace_inverse(*a)).collect();
+    let m = &mask.data;
+    let n = m.len();
+    let jumps = |i: usize, j: usize| {
+        let d = [ev.u[i][0] - ev.u[j][0], ev.u[i][1] - ev.u[j][1]];
+        d[0] * d[0] + d[1] * d[1] > jump2
+    };
+    // a discontinuity between i and j = i + step: a jump between two well-known pixels,
+    // each continuing smoothly on its own side (a lone outlier is no evidence)
+    let pair_ok = |i: usize, j: usize, step: usize| {
+        if !(jumps(i, j) && var[i] < known2 && var[j] < known2) {
+            return true;
+        }
+        let before = i >= step && m[i - step] && !jumps(i - step, i);
+        let after = j + step < n && m[j + step] && !jumps(j, j + step);
+        !(before && after)
+    };
+    let (mut a, mut b) = (a.to_vec(), b.to_vec());
+    if let Some(sc) = opts.contour_sigma {
+        let info = 1.0 / (sc * sc);
+        for (i, u) in contour::contour_normals(mask) {
+            a[i] = [a[i][0] + info, a[i][1], a[i][2] + info];
+            b[i] = [b[i][0] + info * u[0], b[i][1] + info * u[1]];
+        }
+    }
+    let mut levels = vec![Level::finest((w, h), m, (&a, &b), lambda, pair_ok)];
+    while let Some(next) = levels
+        .last()
+        .filter(|l| solve::has_coarser(l.w, l.h))
+        .map(Level::coarser)
+    {
+        levels.push(next);
+    }
+    let coarsest = &levels[levels.len() - 1];
+    let mut x = coarsest.own();
+    let mut iterations = coarsest.solve(&mut x, solve::coarse_iterations());
+    for l in (0..levels.len() - 1).rev() {
+        x = levels[l].start_from(&levels[l + 1], &x);
+        iterations += levels[l].solve(&mut x, opts.iterations);
+    }
+    (x, levels, iterations)
+}
+
+/// The output images and figures from the solution `x` and the final information `a`.
+fn finish(
+    ev: &Evidence,
+    mask: &Mask,
+    x: &[[f32; 2]],
+    levels: &[Level],
+    iterations: usize,
+) -> Output {
+    let a = &ev.a;
+    let w = ev.width;
+    let fine = &levels[0];
+    let inside = |r: usize, c: usize| *mask.get(r, c);
+    let own_share = GrayImage::from_fn(w, ev.height, |r, c| {
+        if inside(r, c) {
+            fine.own_share(r * w + c)
+        } else {
+            0.0
+        }
+    });
+    let normals = NormalMap::from_fn(w, ev.height, |r, c| {
+        if inside(r, c) {
+            to_normal(x[r * w + c])
+        } else {
+            [0.0; 3]
+        }
+    });
+    let sigma_deg = GrayImage::from_fn(w, ev.height, |r, c| {
+        let i = r * w + c;
+        if inside(r, c) {
+            let n = normals.data[i];
+            angular_sigma_deg([n[0], n[1]], a[i])
+        } else {
+            0.0
+        }
+    });
+    let pixels = mask.count();
+    let in_mask = |img: &GrayImage| -> Vec<f32> {
+        img.data
+            .iter()
+            .zip(&mask.data)
+            .filter(|(_, &m)| m)
+            .map(|(v, _)| *v)
+            .collect()
+    };
+    let stats = Stats {
+        pixels,
+        decided_by_neighbours: in_mask(&own_share).iter().filter(|&&s| s < 0.5).count(),
+        cut_triples: count_cuts(fine, &mask.data),
+        levels: levels.len(),
+        iterations,
+        mean_sigma_deg: mean_in(&sigma_deg, mask),
+    };
+    Output {
+        normals,
+        own_share,
+        sigma_deg,
+        stats,
+    }
+}
+
+/// The lookup's confidence after the spatial stage: multiplied by the own share.
+pub fn confidence_after(confidence: &GrayImage, own_share: &GrayImage) -> GrayImage {
+    let mut out = confidence.clone();
+    for (c, s) in out.data.iter_mut().zip(&own_share.data) {
+        *c *= s;
+    }
+    out
+}
+
+fn check(ev: &Evidence, mask: &Mask, opts: &Options) -> Result<()> {
+    mask.check_size(ev.width, ev.height, "spatial stage mask")?;
+    let ok = |v: f32| v.is_finite() && v > 0.0;
+    let contour_ok = opts.contour_sigma.is_none_or(ok);
+    if !ok(opts.smoothness) || !ok(opts.jump) || !contour_ok {
+        return Err(Error::invalid(
+            format!(
+                "spatial smoothness {} / jump {} / contour sigma {:?}",
+                opts.smoothness, opts.jump, opts.contour_sigma
+            ),
+            "use positive finite values (defaults 0.01, 0.15 and 0.01)",
+        ));
+    }
+    Ok(())
+}
+
+/// tr A⁻¹ (∞ when singular).
+fn trace_inverse(a: [f32; 3]) -> f32 {
+    let det = a[0] as f64 * a[2] as f64 - (a[1] as f64).powi(2);
+    if det > 0.0 {
+        ((a[0] + a[2]) as f64 / det) as f32
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// Unit normal of (n_x, n_y), pulled inside the unit disc when it left it.
+fn to_normal(u: [f32; 2]) -> [f32; 3] {
+    let r2 = u[0] * u[0] + u[1] * u[1];
+    let max = 0.9999f32;
+    let (x, y) = if r2 > max * max {
+        let s = max / r2.sqrt();
+        (u[0] * s, u[1] * s)
+    } else {
+        (u[0], u[1])
+    };
+    [x, y, (1.0 - x * x - y * y).max(0.0).sqrt()]
+}
+
+/// Triples inside the mask that were cut.
+fn count_cuts(level: &Level, mask: &[bool]) -> usize {
+    let w = level.w;
+    (0..level.w * level.h)
+        .filter(|&i| {
+            let (r, c) = (i / w, i % w);
+            let h_cut = c > 0 && c + 1 < w && mask[i - 1] && mask[i] && mask[i + 1];
+            let v_cut = r > 0 && r + 1 < level.h && mask[i - w] && mask[i] && mask[i + w];
+            (h_cut && level.wh[i] == 0.0) || (v_cut && level.wv[i] == 0.0)
+        })
+        .count()
+}
