@@ -67,8 +67,12 @@ pub(super) fn normals(
             sphere,
             sphere_mask,
         } => {
-            let det = st.run("sphere detection", |_| {
-                detect(sphere, sphere_mask.clone(), opts)
+            let det = st.run("sphere detection", |p| {
+                let det = detect(sphere, sphere_mask.clone(), opts)?;
+                if let Some(w) = det.warning() {
+                    p.note(&w);
+                }
+                Ok(det)
             })?;
             let table = st.run("lookup table", |_| {
                 lut::Table::build(sphere, &det.circle, &opts.build)
