@@ -28,8 +28,9 @@ pub struct Args {
     /// target): left column, top row, width, height.
     #[arg(long, value_name = "X,Y,W,H", value_parser = crate::lights::parse_region)]
     sphere_region: Option<(usize, usize, usize, usize)>,
-    /// Search the sphere only inside this mask (PNG/TIFF/.npy, non-zero = sphere). The
-    /// mask only says where to look: the circle is always fitted to the rim in the images.
+    /// Search the sphere only inside this mask (PNG/TIFF/.npy, non-zero = sphere);
+    /// default SPHERE_DIR/mask.png if present, as in `run --sphere`. The mask only says
+    /// where to look: the circle is always fitted to the rim in the images.
     #[arg(long, value_name = "MASK")]
     mask: Option<PathBuf>,
     /// Free-text name of the sphere's material, stored in the table.
@@ -56,15 +57,12 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     };
     let data = io::load_dataset(&args.dir, &load)
         .with_context(|| format!("loading the sphere images from {}", args.dir.display()))?;
-    // --mask restricts the search; the circle itself always comes from the images' rim
+    // the mask (--mask, else the folder's mask.png, the same rule as `run --sphere`)
+    // restricts the search; the circle itself always comes from the images' rim
     let detect = DetectOptions {
         circle: args.circle,
         region: args.sphere_region,
-        mask: if args.mask.is_some() {
-            data.mask.clone()
-        } else {
-            None
-        },
+        mask: data.mask.clone(),
         ..DetectOptions::default()
     };
     let det = sphere::detect(&data.stack, &detect)
