@@ -128,7 +128,10 @@ fn normals_writes_sigma_and_honours_no_spatial() {
     let e_without = check_outputs(&without, &data, false);
     println!("normals: lookup alone {e_without:.2}°, with the spatial stage {e_with:.2}°");
     // measured: lookup alone 1.79°, with the spatial stage 0.63° (run: 1.78°, 0.65°)
-    assert!(e_with < 0.6 * e_without && e_with < 1.2, "{e_with} vs {e_without}");
+    assert!(
+        e_with < 0.6 * e_without && e_with < 1.2,
+        "{e_with} vs {e_without}"
+    );
 }
 
 #[test]
@@ -160,7 +163,10 @@ fn run_writes_sigma_reports_the_stage_and_honours_no_spatial() {
     let e_without = check_outputs(&without, &data, false);
     println!("run: lookup alone {e_without:.2}°, with the spatial stage {e_with:.2}°");
     // measured: lookup alone 1.79°, with the spatial stage 0.63° (run: 1.78°, 0.65°)
-    assert!(e_with < 0.6 * e_without && e_with < 1.2, "{e_with} vs {e_without}");
+    assert!(
+        e_with < 0.6 * e_without && e_with < 1.2,
+        "{e_with} vs {e_without}"
+    );
     let json = |d: &Path| -> serde_json::Value {
         serde_json::from_str(&std::fs::read_to_string(d.join("run.json")).unwrap()).unwrap()
     };
