@@ -112,8 +112,9 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The library's errors name the file and the fix already: no context around them.
 fn read_table(path: &Path) -> anyhow::Result<Table> {
-    io::read_table(path).with_context(|| format!("reading the lookup table {}", path.display()))
+    Ok(io::read_table(path)?)
 }
 
 fn lookup_normals(

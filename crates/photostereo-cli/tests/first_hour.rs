@@ -4,6 +4,9 @@
 //! block itself in every entry point (`synth`, `interreflect`, `run`); `bench --only`
 //! rejects a row name it does not know and lists the ones it does.
 
+#[path = "../../photostereo/tests/shared_data/mod.rs"]
+mod shared_data;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -111,14 +114,10 @@ fn bench_only_rejects_unknown_rows_and_help_lists_them() {
     }
 }
 
-/// `../shared/data/real` (or `$PHOTOSTEREO_SHARED/data/real`), where the photographs are.
-fn real_data() -> Option<PathBuf> {
-    let shared = match std::env::var_os("PHOTOSTEREO_SHARED") {
-        Some(p) => PathBuf::from(p),
-        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"),
-    };
-    let real = shared.join("data/real");
-    real.join("buddha").is_dir().then_some(real)
+/// `../shared/data/real` (or `$PHOTOSTEREO_SHARED/data/real`), where the photographs
+/// are; `None` is a recorded skip of `test` (see `shared_data`).
+fn real_data(test: &str) -> Option<PathBuf> {
+    shared_data::path(test, "data/real")
 }
 
 fn json(path: &Path) -> serde_json::Value {
@@ -130,10 +129,7 @@ fn json(path: &Path) -> serde_json::Value {
 /// report say so, with why.
 #[test]
 fn a_sphere_of_another_material_gives_a_loud_warning() {
-    let Some(real) = real_data() else {
-        eprintln!(
-            "SKIP a_sphere_of_another_material_gives_a_loud_warning: ../shared/data/real not found"
-        );
+    let Some(real) = real_data("a_sphere_of_another_material_gives_a_loud_warning") else {
         return;
     };
     let out = out_dir("buddha-wrong-sphere");
@@ -167,8 +163,7 @@ fn a_sphere_of_another_material_gives_a_loud_warning() {
 /// depth.png are exactly the report's (same colour map, same range).
 #[test]
 fn chrome_run_saves_lights_overlay_and_report_pictures() {
-    let Some(real) = real_data() else {
-        eprintln!("SKIP chrome_run_saves_lights_overlay_and_report_pictures: ../shared/data/real not found");
+    let Some(real) = real_data("chrome_run_saves_lights_overlay_and_report_pictures") else {
         return;
     };
     let out = out_dir("buddha-chrome");
@@ -326,4 +321,19 @@ fn bad_paths_are_named_with_the_fix() {
     assert!(o.status.success(), "{t}");
     assert!(!t.contains("0/0 edge points"), "{t}");
     assert!(out.join("s_overlay.png").is_file());
+    // A damaged table: named once, with what it is and what to do.
+    let bytes = std::fs::read(&lut).unwrap();
+    let bad = out.join("cut.lut");
+    std::fs::write(&bad, &bytes[..300]).unwrap();
+    let o = photostereo(
+        &["normals", "--lut"],
+        &[&bad, &data, Path::new("-o"), &out.join("n")],
+    );
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert_eq!(t.matches("cut.lut").count(), 1, "{t}");
+    assert!(
+        t.contains("damaged") && t.contains("photostereo calibrate"),
+        "{t}"
+    );
 }

@@ -167,24 +167,70 @@ fn method(name: Option<&str>, mask: &Mask) -> PyResult<integ::Method> {
     }
 }
 
-/// integrate(normals, mask=None, method="auto", weights=None) -> (H, W) depth
+/// integrate(normals, mask=None, method="auto", weights=None, camera=None, focal=None,
+/// min_nz=0.05, bini_k=2.0) -> (H, W) depth
+///
+/// `camera` is `(text, name)`: a 3×3 intrinsics matrix as text (the `--camera K.txt`
+/// format; `name` names it in errors); `focal` a focal length in pixels with the
+/// principal point at the image centre (`--focal`). With either, the integration is
+/// perspective and "auto" means lsq.
 #[pyfunction]
-#[pyo3(signature = (normals, mask=None, method=None, weights=None))]
+#[pyo3(signature = (normals, mask=None, method=None, weights=None, camera=None, focal=None, min_nz=0.05, bini_k=2.0))]
+#[allow(clippy::too_many_arguments)]
 pub fn integrate<'py>(
     py: Python<'py>,
     normals: PyReadonlyArray3<'_, f32>,
     mask: Option<PyReadonlyArray2<'_, bool>>,
     method: Option<&str>,
     weights: Option<PyReadonlyArray2<'_, f32>>,
+    camera: Option<(String, String)>,
+    focal: Option<f64>,
+    min_nz: f32,
+    bini_k: f32,
 ) -> PyResult<Bound<'py, PyArray2<f32>>> {
     let n = convert::normals_from(&normals)?;
     let mask = mask
         .map(|m| convert::mask_from(&m))
         .unwrap_or_else(|| Mask::full(n.width, n.height));
+    if !(min_nz.is_finite() && (0.0..1.0).contains(&min_nz)) {
+        return Err(value_error(format!(
+            "min_nz={min_nz}: give a number in [0, 1)"
+        )));
+    }
+    let camera = match (camera, focal) {
+        (Some(_), Some(_)) => {
+            return Err(value_error(
+                "give camera= (the intrinsics) or focal= (a focal length), not both".into(),
+            ))
+        }
+        (Some((text, name)), None) => {
+            Some(integ::Camera::from_text(&text, &name).map_err(crate::to_py)?)
+        }
+        (None, Some(f)) => Some(integ::Camera::centred(f, n.width, n.height).map_err(|_| {
+            value_error(format!(
+                "focal={f}: give the focal length in pixels (a positive number)"
+            ))
+        })?),
+        (None, None) => None,
+    };
+    let mut method = match (method, camera) {
+        // perspective integration is lsq or bini; lsq is the default
+        (None | Some("auto"), Some(_)) => integ::Method::Lsq,
+        _ => self::method(method, &mask)?,
+    };
+    if let integ::Method::Bilateral { k, .. } = &mut method {
+        if !(bini_k.is_finite() && bini_k > 0.0) {
+            return Err(value_error(format!(
+                "bini_k={bini_k}: give a positive number"
+            )));
+        }
+        *k = bini_k;
+    }
     let opts = integ::Options {
-        method: self::method(method, &mask)?,
+        method,
         weights: weights.map(|w| convert::gray_from(&w)),
-        ..Default::default()
+        min_nz,
+        camera,
     };
     let out = crate::compute(py, move || integ::solve(&n, &mask, &opts))?;
     Ok(convert::gray_to_py(py, out.depth))

@@ -140,6 +140,39 @@ def test_integrate_ground_truth(data):
         assert ps.integrate(gt_n, mask, method=m).shape == (96, 96)
 
 
+def test_integrate_camera_equals_cli(data, cli, tmp_path):
+    """Perspective integration: a 3x3 matrix, a K.txt path or a focal length give the
+    CLI's depth (`integrate --camera K.txt` / `--focal F`) on the same normals."""
+    vase = data["vase"]
+    mask = ps.load_dataset(vase).mask
+    n = np.load(vase / "normal_gt.npy")
+    np.save(tmp_path / "n.npy", n)
+    k = np.array([[600.0, 0.0, 47.25], [0.0, 610.0, 48.5], [0.0, 0.0, 1.0]])
+    (tmp_path / "K.txt").write_text("\n".join(" ".join(str(v) for v in r) for r in k) + "\n")
+    cases = [
+        ({"camera": k}, ["--camera", tmp_path / "K.txt"]),
+        ({"camera": tmp_path / "K.txt"}, ["--camera", tmp_path / "K.txt"]),
+        ({"camera": 500.0}, ["--focal", "500"]),
+        ({"camera": k, "method": "bini"}, ["--camera", tmp_path / "K.txt", "--method", "bini"]),
+    ]
+    for i, (kw, flags) in enumerate(cases):
+        z = ps.integrate(n, mask, **kw)
+        assert z.shape == (96, 96) and z.dtype == np.float32
+        cli("integrate", tmp_path / "n.npy", "--mask", vase / "mask.png", *flags,
+            "-o", tmp_path / f"z{i}.npy")
+        want = np.load(tmp_path / f"z{i}.npy")
+        np.testing.assert_array_equal(np.isnan(z), np.isnan(want))
+        np.testing.assert_allclose(z[mask], want[mask], rtol=1e-5)
+        assert np.isnan(z[~mask]).all() and (z[mask] > 0).all()  # distance along the axis
+    # the perspective depth's scale: its geometric mean over the part is the focal length
+    z = ps.integrate(n, mask, camera=k)
+    gm = np.exp(np.mean(np.log(z[mask])))
+    print(f"perspective: geometric mean depth {gm:.2f} (fx 600, fy 610)")
+    assert 590 < gm < 620
+    with pytest.raises(ValueError, match="not both|lsq|bini"):
+        ps.integrate(n, mask, camera=k, method="dct")
+
+
 def test_interreflect(data):
     out = ps.interreflect(data["bowl"], max_iter=2)
     assert out["depth"].shape == (40, 40) and out["normals"].shape == (40, 40, 3)
@@ -238,7 +271,13 @@ def test_bad_data_is_value_error(data, tmp_path):
     with pytest.raises(ValueError, match="method"):
         ps.integrate(np.zeros((8, 8, 3), np.float32), method="magic")
     with pytest.raises(ValueError, match="camera"):
-        ps.integrate(np.zeros((8, 8, 3), np.float32), camera="pinhole")
+        ps.integrate(np.zeros((8, 8, 3), np.float32), camera=np.eye(2))  # not 3x3
+    with pytest.raises(ValueError, match="skew"):
+        ps.integrate(np.zeros((8, 8, 3), np.float32), camera=[[9, 1, 4], [0, 9, 4], [0, 0, 1]])
+    with pytest.raises(ValueError, match="focal"):
+        ps.integrate(np.zeros((8, 8, 3), np.float32), camera=-5.0)
+    with pytest.raises(FileNotFoundError):
+        ps.integrate(np.zeros((8, 8, 3), np.float32), camera=tmp_path / "no_K.txt")
     with pytest.raises(ValueError, match="kind"):
         ps.lights_from_sphere(data["matte_sphere"], kind="glass")
     with pytest.raises(ValueError, match="sphere"):

@@ -223,26 +223,59 @@ def integrate(
     method: str = "auto",
     camera: Any = None,
     weights: Optional[np.ndarray] = None,
+    min_nz: float = 0.05,
+    bini_k: float = 2.0,
 ) -> np.ndarray:
     """Depth from a normal map (``photostereo integrate``).
 
     normals: (H, W, 3) unit normals (x right, y up, z toward the camera).
     mask: (H, W) bool pixels to integrate (default: all).
     method: "auto" (DCT Poisson on a full rectangle, masked least squares with a
-        mask), "path", "fc", "fc-reflect", "dct" or "lsq".
-    camera: None (orthographic, the only camera the library models).
-    weights: (H, W) per-pixel confidence for "lsq".
+        mask; lsq with a camera), "path", "fc", "fc-reflect", "dct", "lsq" or "bini"
+        (bilateral normal integration: keeps depth discontinuities).
+    camera: None (orthographic); a pinhole camera for perspective integration (lsq or
+        bini) as a 3x3 intrinsics matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (pixels,
+        pixel centres at integers, as DiLiGenT's K.txt; ``--camera K.txt``), the path of
+        such a text file, or a number: the focal length in pixels with the principal
+        point at the image centre (``--focal F``).
+    weights: (H, W) per-pixel confidence (>= 0) for "lsq" and "bini".
+    min_nz: smallest accepted n_z; normals below it (or NaN) are clamped.
+    bini_k: "bini": sharpness of its sigmoid weights (larger breaks more easily).
 
-    Returns (H, W) float32 depth in pixels, larger = closer, NaN outside the mask.
+    Returns (H, W) float32 depth, NaN outside the mask: orthographic, in pixels, larger =
+    closer; with a camera, the distance along the optical axis (positive, larger =
+    farther, up to scale: its geometric mean over each part is the focal length).
+
+    Raises ValueError (bad shapes, method, camera), FileNotFoundError (camera file).
     """
-    if camera is not None:
-        raise ValueError(
-            "camera: only the orthographic camera (camera=None) is supported; "
-            "normals must be in the orthographic camera frame"
-        )
+    cam, focal = None, None
+    if camera is None:
+        pass
+    elif isinstance(camera, (str, os.PathLike)):
+        with open(camera, encoding="utf-8") as f:
+            cam = (f.read(), os.fspath(camera))
+    elif np.ndim(camera) == 0:
+        focal = float(camera)
+    else:
+        k = np.asarray(camera, dtype=np.float64)
+        if k.shape != (3, 3):
+            raise ValueError(
+                f"camera of shape {k.shape}: give a 3x3 intrinsics matrix "
+                "[[fx, 0, cx], [0, fy, cy], [0, 0, 1]], a K.txt path or a focal length"
+            )
+        cam = ("\n".join(" ".join(repr(float(v)) for v in row) for row in k), "camera matrix")
     n = np.asarray(normals, dtype=np.float32)
     w = None if weights is None else np.asarray(weights, dtype=np.float32)
-    return _native.integrate(n, mask=_mask(mask), method=method, weights=w)
+    return _native.integrate(
+        n,
+        mask=_mask(mask),
+        method=method,
+        weights=w,
+        camera=cam,
+        focal=focal,
+        min_nz=float(min_nz),
+        bini_k=float(bini_k),
+    )
 
 
 def interreflect(

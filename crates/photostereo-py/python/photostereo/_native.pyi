@@ -11,7 +11,7 @@ problems), ValueError (bad data or arguments), with the library's message.
 from __future__ import annotations
 
 import os
-from typing import Optional, Sequence, Union
+from typing import Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -144,8 +144,13 @@ def integrate(
     mask: Optional[Bool] = None,
     method: Optional[str] = None,
     weights: Optional[F32] = None,
+    camera: Optional[Tuple[str, str]] = None,
+    focal: Optional[float] = None,
+    min_nz: float = 0.05,
+    bini_k: float = 2.0,
 ) -> F32:
-    """(H, W) depth from (H, W, 3) normals."""
+    """(H, W) depth from (H, W, 3) normals; camera = (3x3 matrix as text, its name)
+    or focal (pixels) for perspective integration."""
 
 def interreflect(
     images: F32,
