@@ -41,6 +41,12 @@ pub struct Args {
     /// writes the albedo relative to the sphere.
     #[arg(long)]
     normalize: bool,
+    /// Shiny target whose albedo varies: split the table into its Lambertian part and
+    /// the rest (highlight) and fit a·diffuse + b·specular at each pixel, so that only
+    /// the diffuse part scales with the albedo; writes the albedo (a). One table only;
+    /// slower than --normalize.
+    #[arg(long, conflicts_with = "lambertian")]
+    split_specular: bool,
     /// Lookup method: refined (sub-pixel, shadow handling), nearest (best table
     /// entry) or idw (6 nearest entries weighted by inverse distance, the baseline).
     #[arg(long, default_value = "refined", value_parser = ["refined", "nearest", "idw"])]
@@ -129,7 +135,8 @@ fn lookup_normals(
     };
     let opts = lut::Options {
         method,
-        normalize: args.normalize,
+        normalize: args.normalize || args.split_specular,
+        split_specular: args.split_specular,
         ..lut::Options::default()
     };
     let bar = Bar::new(global.quiet);
