@@ -12,7 +12,7 @@ use std::path::PathBuf;
 #[command(after_help = "Examples:\n  \
 photostereo calibrate data/sphere -o sphere.lut --material 'red plastic'\n  \
 photostereo calibrate data/scene --sphere-region 10,20,200,200 -o sphere.lut\n  \
-photostereo calibrate data/sphere --circle 256.5,170,120 --rim 3 -o sphere.lut\n\n\
+photostereo calibrate data/sphere --circle 102,102,100 --rim 3 -o sphere.lut\n\n\
 SPHERE_DIR holds the K images of a sphere of the target's material under the target's lights \
 (DiLiGenT layout). The sphere is found in the maximum of the images; NAME_overlay.png (the circle \
 on that image; NAME = the table's file name without extension) is written beside the table: check it.")]
@@ -28,7 +28,9 @@ pub struct Args {
     /// target): left column, top row, width, height.
     #[arg(long, value_name = "X,Y,W,H", value_parser = crate::lights::parse_region)]
     sphere_region: Option<(usize, usize, usize, usize)>,
-    /// Search the sphere only inside this mask (PNG/TIFF/.npy, non-zero = sphere).
+    /// Search the sphere only inside this mask (PNG/TIFF/.npy, non-zero = sphere);
+    /// default SPHERE_DIR/mask.png if present, as in `run --sphere`. The mask only says
+    /// where to look: the circle is always fitted to the rim in the images.
     #[arg(long, value_name = "MASK")]
     mask: Option<PathBuf>,
     /// Free-text name of the sphere's material, stored in the table.
@@ -55,14 +57,12 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     };
     let data = io::load_dataset(&args.dir, &load)
         .with_context(|| format!("loading the sphere images from {}", args.dir.display()))?;
+    // the mask (--mask, else the folder's mask.png, the same rule as `run --sphere`)
+    // restricts the search; the circle itself always comes from the images' rim
     let detect = DetectOptions {
         circle: args.circle,
         region: args.sphere_region,
-        mask: if args.mask.is_some() {
-            data.mask.clone()
-        } else {
-            None
-        },
+        mask: data.mask.clone(),
         ..DetectOptions::default()
     };
     let det = sphere::detect(&data.stack, &detect)
@@ -79,6 +79,9 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         "detected"
     };
     say(crate::lights::circle_line(source, &det));
+    if let Some(w) = det.warning() {
+        eprintln!("{w}");
+    }
     let opts = BuildOptions {
         rim: args.rim,
         material: args.material.clone(),

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:\n  \
 photostereo lights data/chrome --chrome -o data/chrome/light_directions.txt\n  \
-photostereo lights data/matte_ball --matte --circle 256.5,170,120 -o lights.txt\n\n\
+photostereo lights data/matte_ball --matte --circle 102,102,100 -o lights.txt\n\n\
 SPHERE_DIR holds the K sphere images (DiLiGenT layout: filenames.txt or 001.png, 002.png, ...). \
 The sphere is found in the maximum of the images or, for a dark chrome sphere, from the edges \
 where its rim contrasts with what lies behind it; where the rim does not show at all the outline \
@@ -70,6 +70,9 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         }
     };
     say(circle_line(source, &det));
+    if let Some(w) = det.warning() {
+        eprintln!("{w}");
+    }
     // --chrome is the default; it only documents the choice
     let matte = args.matte && !args.chrome;
     let lights = if matte {
@@ -226,19 +229,7 @@ fn intensities_file(output: &Path) -> PathBuf {
 
 /// The circle line of `lights` and `calibrate`: the fit quality only when there was a fit.
 pub(crate) fn circle_line(source: &str, det: &Detection) -> String {
-    let c = det.circle;
-    let fit = if det.edge_points > 0 {
-        format!(
-            "; fit rms {:.3} px over {}/{} edge points",
-            det.rms_residual_px, det.inliers, det.edge_points
-        )
-    } else {
-        String::new()
-    };
-    format!(
-        "sphere circle ({source}): cx {:.2}, cy {:.2}, r {:.2} px{fit}",
-        c.cx, c.cy, c.radius
-    )
+    format!("sphere circle ({source}): {}", det.describe())
 }
 
 fn numbers<const N: usize>(s: &str, what: &str) -> Result<[f64; N], String> {

@@ -73,6 +73,19 @@ def test_lookup_equals_cli(data, cli, tmp_path):
     # the same table file read by Python
     got2 = ps.Table.load(lut).lookup(data["blob"]).normals
     assert np.abs(got2 - want).max() <= 1e-4
+    # with the spatial stage: `normals` by default, and its extra maps
+    cli("normals", data["blob"], "--lut", lut, "-o", tmp_path / "s")
+    res = ps.Table.load(lut).lookup(data["blob"], spatial=True)
+    for name, got3 in [("normals", res.normals), ("confidence", res.confidence),
+                       ("normals_sigma", res.normals_sigma), ("own_share", res.own_share)]:
+        want3 = np.load(tmp_path / "s" / f"{name}.npy")
+        assert got3.dtype == np.float32 and got3.shape == want3.shape
+        diff = np.nanmax(np.abs(got3 - want3))
+        print(f"spatial lookup vs CLI normals: {name} max |diff| {diff:.2e}")
+        assert diff <= 1e-4, name
+    assert res.own_share.min() < 1.0  # the stage moved some pixel
+    with pytest.raises(ValueError, match="one table"):
+        ps.lookup(data["blob"], [ps.Table.load(lut)] * 2, spatial=True)
 
 
 def test_lookup_from_arrays(data):
@@ -140,6 +153,39 @@ def test_integrate_ground_truth(data):
         assert ps.integrate(gt_n, mask, method=m).shape == (96, 96)
 
 
+def test_integrate_camera_equals_cli(data, cli, tmp_path):
+    """Perspective integration: a 3x3 matrix, a K.txt path or a focal length give the
+    CLI's depth (`integrate --camera K.txt` / `--focal F`) on the same normals."""
+    vase = data["vase"]
+    mask = ps.load_dataset(vase).mask
+    n = np.load(vase / "normal_gt.npy")
+    np.save(tmp_path / "n.npy", n)
+    k = np.array([[600.0, 0.0, 47.25], [0.0, 610.0, 48.5], [0.0, 0.0, 1.0]])
+    (tmp_path / "K.txt").write_text("\n".join(" ".join(str(v) for v in r) for r in k) + "\n")
+    cases = [
+        ({"camera": k}, ["--camera", tmp_path / "K.txt"]),
+        ({"camera": tmp_path / "K.txt"}, ["--camera", tmp_path / "K.txt"]),
+        ({"camera": 500.0}, ["--focal", "500"]),
+        ({"camera": k, "method": "bini"}, ["--camera", tmp_path / "K.txt", "--method", "bini"]),
+    ]
+    for i, (kw, flags) in enumerate(cases):
+        z = ps.integrate(n, mask, **kw)
+        assert z.shape == (96, 96) and z.dtype == np.float32
+        cli("integrate", tmp_path / "n.npy", "--mask", vase / "mask.png", *flags,
+            "-o", tmp_path / f"z{i}.npy")
+        want = np.load(tmp_path / f"z{i}.npy")
+        np.testing.assert_array_equal(np.isnan(z), np.isnan(want))
+        np.testing.assert_allclose(z[mask], want[mask], rtol=1e-5)
+        assert np.isnan(z[~mask]).all() and (z[mask] > 0).all()  # distance along the axis
+    # the perspective depth's scale: its geometric mean over the part is the focal length
+    z = ps.integrate(n, mask, camera=k)
+    gm = np.exp(np.mean(np.log(z[mask])))
+    print(f"perspective: geometric mean depth {gm:.2f} (fx 600, fy 610)")
+    assert 590 < gm < 620
+    with pytest.raises(ValueError, match="not both|lsq|bini"):
+        ps.integrate(n, mask, camera=k, method="dct")
+
+
 def test_interreflect(data):
     out = ps.interreflect(data["bowl"], max_iter=2)
     assert out["depth"].shape == (40, 40) and out["normals"].shape == (40, 40, 3)
@@ -152,6 +198,13 @@ def test_run_equals_cli(data, cli, tmp_path):
     want = json.loads((tmp_path / "cli" / "run.json").read_text())
     assert got["figures"] == want["figures"]
     assert got == json.loads((tmp_path / "py" / "run.json").read_text())
+    # spatial=False is `run --no-spatial`
+    off = ps.run(data["blob"], tmp_path / "py0", sphere=data["sphere"], spatial=False)
+    cli("run", data["blob"], "--sphere", data["sphere"], "--no-spatial", "-o", tmp_path / "cli0")
+    assert off["figures"] == json.loads((tmp_path / "cli0" / "run.json").read_text())["figures"]
+    np.testing.assert_array_equal(
+        np.load(tmp_path / "py0" / "normals.npy"), np.load(tmp_path / "cli0" / "normals.npy")
+    )
     for f in ("normals.npy", "depth.npy", "confidence.npy"):
         a, b = np.load(tmp_path / "py" / f), np.load(tmp_path / "cli" / f)
         np.testing.assert_array_equal(a, b)
@@ -238,7 +291,13 @@ def test_bad_data_is_value_error(data, tmp_path):
     with pytest.raises(ValueError, match="method"):
         ps.integrate(np.zeros((8, 8, 3), np.float32), method="magic")
     with pytest.raises(ValueError, match="camera"):
-        ps.integrate(np.zeros((8, 8, 3), np.float32), camera="pinhole")
+        ps.integrate(np.zeros((8, 8, 3), np.float32), camera=np.eye(2))  # not 3x3
+    with pytest.raises(ValueError, match="skew"):
+        ps.integrate(np.zeros((8, 8, 3), np.float32), camera=[[9, 1, 4], [0, 9, 4], [0, 0, 1]])
+    with pytest.raises(ValueError, match="focal"):
+        ps.integrate(np.zeros((8, 8, 3), np.float32), camera=-5.0)
+    with pytest.raises(FileNotFoundError):
+        ps.integrate(np.zeros((8, 8, 3), np.float32), camera=tmp_path / "no_K.txt")
     with pytest.raises(ValueError, match="kind"):
         ps.lights_from_sphere(data["matte_sphere"], kind="glass")
     with pytest.raises(ValueError, match="sphere"):

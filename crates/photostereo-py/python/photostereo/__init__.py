@@ -143,6 +143,7 @@ def lookup(
     *,
     mask: Optional[np.ndarray] = None,
     normalize: bool = False,
+    spatial: bool = False,
 ) -> Result:
     """Normals of a target by table lookup (``photostereo normals --lut``).
 
@@ -152,15 +153,26 @@ def lookup(
         t = a I_A(n) + b I_B(n), a, b >= 0; the weights come back in ``.weights``).
     mask: (H, W) bool pixels to solve (default: the dataset's mask, else all).
     normalize: fit an albedo relative to the sphere (``.albedo``), for albedo changes.
+    spatial: follow the lookup with the spatial stage, as ``photostereo normals`` does
+        by default (one table): pixels whose data say little take their normal from
+        their neighbours; ``.normals_sigma`` (degrees) and ``.own_share`` come back and
+        the confidence is multiplied by the own share. Default False: every pixel keeps
+        its own match (``normals --no-spatial``; ``lut::solve`` alone).
 
     Returns a :class:`Result`: ``.normals`` (H, W, 3) float32, ``.confidence`` (H, W),
-    ``.albedo`` (normalize only), ``.residual``, ``.weights`` (two tables).
+    ``.albedo`` (normalize only), ``.residual``, ``.weights`` (two tables),
+    ``.normals_sigma`` and ``.own_share`` (spatial only).
     """
     if isinstance(tables, Table):
         tables = [tables]
     ds = _dataset(target)
     return _native.lookup(
-        ds.images, ds.names, list(tables), mask=_mask(mask, ds.mask), normalize=normalize
+        ds.images,
+        ds.names,
+        list(tables),
+        mask=_mask(mask, ds.mask),
+        normalize=normalize,
+        spatial=spatial,
     )
 
 
@@ -223,26 +235,59 @@ def integrate(
     method: str = "auto",
     camera: Any = None,
     weights: Optional[np.ndarray] = None,
+    min_nz: float = 0.05,
+    bini_k: float = 2.0,
 ) -> np.ndarray:
     """Depth from a normal map (``photostereo integrate``).
 
     normals: (H, W, 3) unit normals (x right, y up, z toward the camera).
     mask: (H, W) bool pixels to integrate (default: all).
     method: "auto" (DCT Poisson on a full rectangle, masked least squares with a
-        mask), "path", "fc", "fc-reflect", "dct" or "lsq".
-    camera: None (orthographic, the only camera the library models).
-    weights: (H, W) per-pixel confidence for "lsq".
+        mask; lsq with a camera), "path", "fc", "fc-reflect", "dct", "lsq" or "bini"
+        (bilateral normal integration: keeps depth discontinuities).
+    camera: None (orthographic); a pinhole camera for perspective integration (lsq or
+        bini) as a 3x3 intrinsics matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (pixels,
+        pixel centres at integers, as DiLiGenT's K.txt; ``--camera K.txt``), the path of
+        such a text file, or a number: the focal length in pixels with the principal
+        point at the image centre (``--focal F``).
+    weights: (H, W) per-pixel confidence (>= 0) for "lsq" and "bini".
+    min_nz: smallest accepted n_z; normals below it (or NaN) are clamped.
+    bini_k: "bini": sharpness of its sigmoid weights (larger breaks more easily).
 
-    Returns (H, W) float32 depth in pixels, larger = closer, NaN outside the mask.
+    Returns (H, W) float32 depth, NaN outside the mask: orthographic, in pixels, larger =
+    closer; with a camera, the distance along the optical axis (positive, larger =
+    farther, up to scale: its geometric mean over each part is the focal length).
+
+    Raises ValueError (bad shapes, method, camera), FileNotFoundError (camera file).
     """
-    if camera is not None:
-        raise ValueError(
-            "camera: only the orthographic camera (camera=None) is supported; "
-            "normals must be in the orthographic camera frame"
-        )
+    cam, focal = None, None
+    if camera is None:
+        pass
+    elif isinstance(camera, (str, os.PathLike)):
+        with open(camera, encoding="utf-8") as f:
+            cam = (f.read(), os.fspath(camera))
+    elif np.ndim(camera) == 0:
+        focal = float(camera)
+    else:
+        k = np.asarray(camera, dtype=np.float64)
+        if k.shape != (3, 3):
+            raise ValueError(
+                f"camera of shape {k.shape}: give a 3x3 intrinsics matrix "
+                "[[fx, 0, cx], [0, fy, cy], [0, 0, 1]], a K.txt path or a focal length"
+            )
+        cam = ("\n".join(" ".join(repr(float(v)) for v in row) for row in k), "camera matrix")
     n = np.asarray(normals, dtype=np.float32)
     w = None if weights is None else np.asarray(weights, dtype=np.float32)
-    return _native.integrate(n, mask=_mask(mask), method=method, weights=w)
+    return _native.integrate(
+        n,
+        mask=_mask(mask),
+        method=method,
+        weights=w,
+        camera=cam,
+        focal=focal,
+        min_nz=float(min_nz),
+        bini_k=float(bini_k),
+    )
 
 
 def interreflect(
@@ -254,6 +299,7 @@ def interreflect(
     tol: float = 0.01,
     image_scale: float = 1.0,
     method: str = "auto",
+    block: Optional[int] = None,
 ) -> dict:
     """Remove interreflections (Nayar-Ikeuchi-Kanade iteration, ``photostereo interreflect``).
 
@@ -262,6 +308,7 @@ def interreflect(
     lights: (K, 3) directions (default: the dataset's); mask: (H, W) bool.
     max_iter: most compensation steps; tol: stop when the change of the shape falls
         below this fraction of the depth range.
+    block: facet size in pixels (default: the smallest >= 2 giving at most 4096 facets).
 
     Returns a dict: "normals" (H, W, 3), "albedo" (H, W), "depth" (H, W) of the kept
     iterate, "summary", "csv", "iterations" (list of dicts: depth_range, mean_albedo,
@@ -282,6 +329,7 @@ def interreflect(
         max_iter=int(max_iter),
         tol=float(tol),
         method=method,
+        block=None if block is None else int(block),
     )
     return {
         "normals": normals,
@@ -309,6 +357,8 @@ def run(
     image_scale: Optional[float] = None,
     method: Optional[str] = None,
     mask: Optional[PathLike] = None,
+    spatial: bool = True,
+    block: Optional[int] = None,
 ) -> dict:
     """The whole job on a dataset directory, as ``photostereo run`` (same outputs).
 
@@ -320,6 +370,9 @@ def run(
     image_scale: factor to bring the images to radiance units (Lambertian).
     method: integrator ("path", "fc", "fc-reflect", "dct", "lsq"; default from the mask).
     mask: mask file instead of the dataset's mask.png.
+    spatial: the spatial stage after the normals (default on, as the CLI): pixels whose
+        data say little take their normal from their neighbours (``--no-spatial``: False).
+    block: facet size in pixels for interreflections (default: chosen from the size).
 
     Writes normals.npy/png, albedo, confidence, depth.npy/png, mesh.ply, run.json,
     report.html into ``out``; returns what run.json holds (a dict).
@@ -338,5 +391,7 @@ def run(
         image_scale=image_scale,
         interreflections=interreflections,
         method=method,
+        spatial=spatial,
+        block=block,
     )
     return json.loads(text)

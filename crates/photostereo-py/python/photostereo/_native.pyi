@@ -11,7 +11,7 @@ problems), ValueError (bad data or arguments), with the library's message.
 from __future__ import annotations
 
 import os
-from typing import Optional, Sequence, Union
+from typing import Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -69,6 +69,12 @@ class Result:
     @property
     def weights(self) -> Optional[list[F32]]:
         """Two (H, W) mixture weights (a, b) with two tables, else None."""
+    @property
+    def normals_sigma(self) -> Optional[F32]:
+        """(H, W) angular standard error (degrees) of each normal from its own data (lookup with spatial=True)."""
+    @property
+    def own_share(self) -> Optional[F32]:
+        """(H, W) share in [0, 1] of each pixel's own data in its normal (spatial stage)."""
 
 class Table:
     """A lookup table intensity tuple -> normal, from a calibration sphere."""
@@ -96,8 +102,10 @@ class Table:
         *,
         mask: Optional[Bool] = None,
         normalize: bool = False,
+        spatial: bool = False,
     ) -> Result:
-        """Normals of target (a Dataset, directory or (K, H, W) array) by this table."""
+        """Normals of target (a Dataset, directory or (K, H, W) array) by this table;
+        spatial=True adds the spatial stage (as ``photostereo normals`` by default)."""
     def save(self, path: PathLike) -> None:
         """Write the .lut file (as ``photostereo calibrate``), atomically."""
     @staticmethod
@@ -125,8 +133,10 @@ def lookup(
     tables: Sequence[Table],
     mask: Optional[Bool] = None,
     normalize: bool = False,
+    spatial: bool = False,
 ) -> Result:
-    """Normals of (K, H, W) images by one table, or two for a mixture."""
+    """Normals of (K, H, W) images by one table, or two for a mixture; spatial=True
+    adds the spatial stage (one table)."""
 
 def lambertian(images: F32, lights: F32, mask: Optional[Bool] = None, robust: bool = True) -> Result:
     """Lambertian photometric stereo with known (K, 3) lights."""
@@ -144,8 +154,13 @@ def integrate(
     mask: Optional[Bool] = None,
     method: Optional[str] = None,
     weights: Optional[F32] = None,
+    camera: Optional[Tuple[str, str]] = None,
+    focal: Optional[float] = None,
+    min_nz: float = 0.05,
+    bini_k: float = 2.0,
 ) -> F32:
-    """(H, W) depth from (H, W, 3) normals."""
+    """(H, W) depth from (H, W, 3) normals; camera = (3x3 matrix as text, its name)
+    or focal (pixels) for perspective integration."""
 
 def interreflect(
     images: F32,
@@ -154,6 +169,7 @@ def interreflect(
     max_iter: int = 10,
     tol: float = 0.01,
     method: Optional[str] = None,
+    block: Optional[int] = None,
 ) -> tuple[F32, F32, F32, str, str, list[tuple[int, float, float, float]], int]:
     """Nayar-Ikeuchi-Kanade iteration: (normals, albedo, depth, summary, csv, rows, best)."""
 
@@ -169,5 +185,7 @@ def run(
     image_scale: Optional[float] = None,
     interreflections: bool = False,
     method: Optional[str] = None,
+    spatial: bool = True,
+    block: Optional[int] = None,
 ) -> str:
     """The whole ``photostereo run``; returns the run.json text."""

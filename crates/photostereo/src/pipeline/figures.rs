@@ -109,12 +109,12 @@ pub fn warnings(job: &Job, confidence: Option<&GrayImage>, opts: &super::Options
     w
 }
 
-/// The circle figure: "cx, cy, r (fit rms … px)".
+/// The circle figure: "cx, cy, r ± uncertainty (…; fit rms … px)".
 pub(super) fn circle(det: &sphere::Detection) -> String {
     let c = det.circle;
     format!(
-        "{:.2}, {:.2}, {:.2} (fit rms {:.2} px)",
-        c.cx, c.cy, c.radius, det.rms_residual_px
+        "{:.2}, {:.2}, {:.2} ± {:.2} (1σ, fitted on the {}; fit rms {:.2} px)",
+        c.cx, c.cy, c.radius, det.uncertainty_px, det.fitted_on, det.rms_residual_px
     )
 }
 

@@ -24,7 +24,7 @@
 //! The result is accepted by the caller only when the inliers cover enough of the rim.
 
 use super::edges::{otsu, subpixel_edge, View};
-use super::fit::{circle_through, refine_geometric, SplitMix};
+use super::fit::{circle_through, refine_geometric, uncertainty, SplitMix};
 use super::Circle;
 
 /// An edge point with its unit gradient direction (toward increasing L).
@@ -43,6 +43,8 @@ pub(crate) struct ContrastFit {
     pub edge_points: usize,
     /// Fraction of the rim (2° sectors) that holds an inlier.
     pub coverage: f64,
+    /// 1-σ uncertainty of the circle (pixels, [`super::fit::uncertainty`]).
+    pub uncertainty_px: f64,
 }
 
 /// Smallest |cos| between an inlier's gradient and the circle's radial direction.
@@ -242,6 +244,7 @@ fn refine_inliers(
         inliers: n,
         edge_points,
         coverage: cov,
+        uncertainty_px: uncertainty(&inl, &circle).unwrap_or(f64::INFINITY),
     })
 }
 

@@ -199,6 +199,37 @@ pub fn fit_robust(points: &[[f64; 2]], opts: &FitOptions) -> Result<CircleFit> {
     })
 }
 
+/// Standard deviations (pixels) of the centre (√(var cx + var cy)) and of the radius of
+/// the geometric circle fit to `points` (s²(JᵀJ)⁻¹, s² the residual variance with 3 parameters).
+pub fn circle_sd(points: &[[f64; 2]], c: &Circle) -> Option<(f64, f64)> {
+    let mut jtj = [[0.0f64; 3]; 3];
+    let mut ss = 0.0;
+    for p in points {
+        let (dx, dy) = (p[0] - c.cx, p[1] - c.cy);
+        let d = dx.hypot(dy).max(1e-12);
+        let j = [-dx / d, -dy / d, -1.0];
+        for a in 0..3 {
+            for b in 0..3 {
+                jtj[a][b] += j[a] * j[b];
+            }
+        }
+        ss += (d - c.radius).powi(2);
+    }
+    let s2 = ss / (points.len() as f64 - 3.0).max(1.0);
+    let col = |i: usize| {
+        let mut e = [0.0; 3];
+        e[i] = 1.0;
+        solve3(jtj, e).map(|x| x[i])
+    };
+    let (vx, vy, vr) = (col(0)?, col(1)?, col(2)?);
+    Some(((s2 * (vx + vy)).sqrt(), (s2 * vr).sqrt()))
+}
+
+/// The larger of the two standard deviations of [`circle_sd`] (pixels).
+pub fn uncertainty(points: &[[f64; 2]], c: &Circle) -> Option<f64> {
+    circle_sd(points, c).map(|(a, b)| a.max(b))
+}
+
 /// Circle through three points, `None` when (nearly) collinear.
 pub fn circle_through(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> Option<Circle> {
     let (bx, by) = (b[0] - a[0], b[1] - a[1]);
