@@ -12,7 +12,7 @@ use std::path::PathBuf;
 #[command(after_help = "Examples:\n  \
 photostereo calibrate data/sphere -o sphere.lut --material 'red plastic'\n  \
 photostereo calibrate data/scene --sphere-region 10,20,200,200 -o sphere.lut\n  \
-photostereo calibrate data/sphere --circle 256.5,170,120 --rim 3 -o sphere.lut\n\n\
+photostereo calibrate data/sphere --circle 102,102,100 --rim 3 -o sphere.lut\n\n\
 SPHERE_DIR holds the K images of a sphere of the target's material under the target's lights \
 (DiLiGenT layout). The sphere is found in the maximum of the images; NAME_overlay.png (the circle \
 on that image; NAME = the table's file name without extension) is written beside the table: check it.")]

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:\n  \
 photostereo lights data/chrome --chrome -o data/chrome/light_directions.txt\n  \
-photostereo lights data/matte_ball --matte --circle 256.5,170,120 -o lights.txt\n\n\
+photostereo lights data/matte_ball --matte --circle 102,102,100 -o lights.txt\n\n\
 SPHERE_DIR holds the K sphere images (DiLiGenT layout: filenames.txt or 001.png, 002.png, ...). \
 The sphere is found in the maximum of the images or, for a dark chrome sphere, from the edges \
 where its rim contrasts with what lies behind it; where the rim does not show at all the outline \

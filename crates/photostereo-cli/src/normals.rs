@@ -41,6 +41,12 @@ pub struct Args {
     /// writes the albedo relative to the sphere.
     #[arg(long)]
     normalize: bool,
+    /// Shiny target whose albedo varies: split the table into its Lambertian part and
+    /// the rest (highlight) and fit a·diffuse + b·specular at each pixel, so that only
+    /// the diffuse part scales with the albedo; writes the albedo (a). One table only;
+    /// slower than --normalize.
+    #[arg(long, conflicts_with = "lambertian")]
+    split_specular: bool,
     /// Lookup method: refined (sub-pixel, shadow handling), nearest (best table
     /// entry) or idw (6 nearest entries weighted by inverse distance, the baseline).
     #[arg(long, default_value = "refined", value_parser = ["refined", "nearest", "idw"])]
@@ -106,8 +112,9 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The library's errors name the file and the fix already: no context around them.
 fn read_table(path: &Path) -> anyhow::Result<Table> {
-    io::read_table(path).with_context(|| format!("reading the lookup table {}", path.display()))
+    Ok(io::read_table(path)?)
 }
 
 fn lookup_normals(
@@ -128,7 +135,8 @@ fn lookup_normals(
     };
     let opts = lut::Options {
         method,
-        normalize: args.normalize,
+        normalize: args.normalize || args.split_specular,
+        split_specular: args.split_specular,
         ..lut::Options::default()
     };
     let bar = Bar::new(global.quiet);

@@ -1,8 +1,12 @@
 //! A new user's first hour (issue 15): the commands that used to stop with a dead end.
 //!
 //! Interreflection removal on the default 256² and on 512² images chooses its facet
-//! block itself in every entry point (`synth`, `interreflect`, `run`); `bench --only`
-//! rejects a row name it does not know and lists the ones it does.
+//! block itself in every entry point (`synth`, `interreflect`, `run`, `demo --size 512`);
+//! `bench --only` rejects a row name it does not know and lists the ones it does;
+//! warnings, pictures and messages; progress as plain lines when stderr is not a terminal.
+
+#[path = "../../photostereo/tests/shared_data/mod.rs"]
+mod shared_data;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -111,14 +115,10 @@ fn bench_only_rejects_unknown_rows_and_help_lists_them() {
     }
 }
 
-/// `../shared/data/real` (or `$PHOTOSTEREO_SHARED/data/real`), where the photographs are.
-fn real_data() -> Option<PathBuf> {
-    let shared = match std::env::var_os("PHOTOSTEREO_SHARED") {
-        Some(p) => PathBuf::from(p),
-        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"),
-    };
-    let real = shared.join("data/real");
-    real.join("buddha").is_dir().then_some(real)
+/// `../shared/data/real` (or `$PHOTOSTEREO_SHARED/data/real`), where the photographs
+/// are; `None` is a recorded skip of `test` (see `shared_data`).
+fn real_data(test: &str) -> Option<PathBuf> {
+    shared_data::path(test, "data/real")
 }
 
 fn json(path: &Path) -> serde_json::Value {
@@ -130,10 +130,7 @@ fn json(path: &Path) -> serde_json::Value {
 /// report say so, with why.
 #[test]
 fn a_sphere_of_another_material_gives_a_loud_warning() {
-    let Some(real) = real_data() else {
-        eprintln!(
-            "SKIP a_sphere_of_another_material_gives_a_loud_warning: ../shared/data/real not found"
-        );
+    let Some(real) = real_data("a_sphere_of_another_material_gives_a_loud_warning") else {
         return;
     };
     let out = out_dir("buddha-wrong-sphere");
@@ -167,8 +164,7 @@ fn a_sphere_of_another_material_gives_a_loud_warning() {
 /// depth.png are exactly the report's (same colour map, same range).
 #[test]
 fn chrome_run_saves_lights_overlay_and_report_pictures() {
-    let Some(real) = real_data() else {
-        eprintln!("SKIP chrome_run_saves_lights_overlay_and_report_pictures: ../shared/data/real not found");
+    let Some(real) = real_data("chrome_run_saves_lights_overlay_and_report_pictures") else {
         return;
     };
     let out = out_dir("buddha-chrome");
@@ -326,4 +322,90 @@ fn bad_paths_are_named_with_the_fix() {
     assert!(o.status.success(), "{t}");
     assert!(!t.contains("0/0 edge points"), "{t}");
     assert!(out.join("s_overlay.png").is_file());
+    // A damaged table: named once, with what it is and what to do.
+    let bytes = std::fs::read(&lut).unwrap();
+    let bad = out.join("cut.lut");
+    std::fs::write(&bad, &bytes[..300]).unwrap();
+    let o = photostereo(
+        &["normals", "--lut"],
+        &[&bad, &data, Path::new("-o"), &out.join("n")],
+    );
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert_eq!(t.matches("cut.lut").count(), 1, "{t}");
+    assert!(
+        t.contains("damaged") && t.contains("photostereo calibrate"),
+        "{t}"
+    );
+}
+
+/// `demo --size 512` used to stop after the vase (too many facets for the bowl): every
+/// scene now runs through and writes its report.
+#[test]
+fn demo_at_512_runs_every_scene() {
+    let out = out_dir("demo512");
+    let o = photostereo(&["-q", "demo", "--size", "512", "-o"], &[&out]);
+    assert!(o.status.success(), "demo --size 512: {}", text(&o));
+    for scene in ["vase", "bowl"] {
+        assert!(out.join(scene).join("report.html").is_file(), "{scene}");
+    }
+}
+
+/// Without a terminal (a pipe, as here) progress comes as plain lines on stderr: each
+/// stage when it starts and ends (with its time), and each interreflection iteration
+/// when it ends.
+#[test]
+fn progress_is_logged_as_lines_without_a_terminal() {
+    let data = out_dir("progress-bowl");
+    let o = photostereo(
+        &[
+            "-q",
+            "synth",
+            "--shape",
+            "bowl",
+            "--material",
+            "lambertian",
+            "-k",
+            "8",
+            "--size",
+            "48",
+            "--interreflections",
+            "-o",
+        ],
+        &[&data],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let o = photostereo(
+        &["interreflect", "--max-iter", "3", "--tol", "0", "-o"],
+        &[&out_dir("progress-ir"), &data],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    for it in [
+        "iteration 0 (raw)",
+        "iteration 1/3:",
+        "iteration 2/3:",
+        "iteration 3/3:",
+    ] {
+        assert!(err.contains(it), "no '{it}' on stderr:\n{err}");
+    }
+    let o = photostereo(
+        &["run", "--lambertian", "--image-scale", "1"],
+        &[&data, Path::new("-o"), &out_dir("progress-run")],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let starts = err
+        .lines()
+        .filter(|l| l.starts_with('[') && l.ends_with(" ..."))
+        .count();
+    let ends = err
+        .lines()
+        .filter(|l| l.starts_with('[') && l.ends_with(" s"))
+        .count();
+    // measured: 4 stages (Lambertian normals, spatial stage, integration, mesh) + accuracy
+    assert!(
+        starts >= 4 && starts == ends,
+        "stage lines {starts}/{ends}:\n{err}"
+    );
 }

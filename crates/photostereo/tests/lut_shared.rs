@@ -292,3 +292,95 @@ fn diligent_ball_rescaled_by_band() {
     // certificate: 0.357°, 2.88%); issue 10's target is < 0.15°
     assert!(s.mean < 0.35 && s.over2 < 0.01, "{s:?}");
 }
+
+/// The 16-bit scale of a render (`"scale"` in its `meta.json`).
+fn render_scale(dir: &std::path::Path) -> f64 {
+    let meta = std::fs::read_to_string(dir.join("meta.json")).unwrap();
+    let at = meta.find("\"scale\":").expect("scale in meta.json") + 8;
+    let end = meta[at..].find([',', '}']).unwrap() + at;
+    meta[at..end].trim().parse().unwrap()
+}
+
+/// Textured albedo on the Mitsuba plastic (issue 10, item 4): the blob's diffuse
+/// render (Lambert 0.7, scaled by κ to the plastic's diffuse level) times 16-px albedo
+/// patches of 1.0 / 0.45, plus the rest of the plastic render (its highlight, and the
+/// difference between the plastic's Fresnel-weighted diffuse lobe and Lambert's, which
+/// does not scale with the patches: an approximation of a textured plastic). Normalised matching against the diffuse/specular split, both on
+/// the plastic sphere's table with the true circle.
+#[test]
+fn mitsuba_textured_plastic_split() {
+    let test = "mitsuba_textured_plastic_split";
+    let (Some(calib), Some(plastic), Some(diffuse)) = (
+        dataset(test, "calib_roughplastic"),
+        dataset(test, "target_roughplastic"),
+        dataset(test, "target_diffuse"),
+    ) else {
+        return;
+    };
+    let ratio = (render_scale(&plastic.dir) / render_scale(&diffuse.dir)) as f32;
+    // the plastic's diffuse lobe is about κ × the Lambert 0.7 render (Fresnel
+    // transmission): κ = median ratio of the two over brightly lit samples
+    let mut ratios: Vec<f32> = (0..plastic.stack.pixels())
+        .flat_map(|i| {
+            let (p, d) = (plastic.stack.pixel_flat(i), diffuse.stack.pixel_flat(i));
+            p.iter()
+                .zip(d)
+                .filter(|(_, &d)| d > 0.3)
+                .map(|(p, d)| p / (d * ratio))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let mid = ratios.len() / 2;
+    let kappa = *ratios.select_nth_unstable_by(mid, f32::total_cmp).1;
+    println!("plastic diffuse / Lambert 0.7: κ = {kappa:.3}");
+    let ratio = ratio * kappa;
+    let mut target = plastic.stack.clone();
+    let w = target.width;
+    for i in 0..target.pixels() {
+        let (r, c) = (i / w, i % w);
+        let tex = if (r / 16 + c / 16) % 2 == 0 {
+            1.0
+        } else {
+            0.45
+        };
+        for (t, d) in target
+            .pixel_flat_mut(i)
+            .iter_mut()
+            .zip(diffuse.stack.pixel_flat(i))
+        {
+            *t += (tex - 1.0) * d * ratio;
+        }
+    }
+    let truth = io::read_normals_npy(&plastic.dir.join("normal_gt.npy")).unwrap();
+    let mask = plastic.mask.clone().unwrap();
+    let circle = Circle {
+        cx: 128.0,
+        cy: 128.0,
+        radius: 100.0,
+    };
+    let t = [table(&calib.stack, &circle)];
+    let run = |split: bool| {
+        let opts = Options {
+            normalize: true,
+            split_specular: split,
+            ..Options::default()
+        };
+        score(
+            &lut::solve(&target, &mask, &t, &opts, &NoProgress).unwrap(),
+            &truth,
+            &mask,
+        )
+    };
+    let (plain, split) = (run(false), run(true));
+    print("textured plastic, normalised", &plain);
+    print("textured plastic, diffuse/specular split", &split);
+    // measured: normalised 1.761° (bands 1.52 / 2.25 / 2.33 / 2.95°), split 0.562°
+    // (0.27 / 0.79 / 0.92 / 4.58°: no rim model in the mixture); issue 10's target < 0.45°
+    assert!(split.mean < 1.0 && split.bands[0] < 0.5, "{split:?}");
+    assert!(
+        split.mean < 0.5 * plain.mean,
+        "{:.3}° vs {:.3}°",
+        split.mean,
+        plain.mean
+    );
+}

@@ -58,6 +58,11 @@ pub struct Args {
     /// Mask file instead of the dataset's mask.png.
     #[arg(long)]
     pub mask: Option<PathBuf>,
+    /// Keep every pixel's own normal: no spatial stage (by default pixels whose data say
+    /// little about their normal take it from their neighbours; see `photostereo::spatial`).
+    /// normals_sigma.npy is written either way; own_share.npy only with the stage.
+    #[arg(long)]
+    pub no_spatial: bool,
 }
 
 /// Run the subcommand.
@@ -82,6 +87,10 @@ pub fn run(mut args: Args, global: Global) -> Result<()> {
             .transpose()?,
         interreflections: args.interreflections,
         ..Default::default()
+    };
+    let opts = pipeline::Options {
+        spatial: opts.spatial.filter(|_| !args.no_spatial),
+        ..opts
     };
     let mut opts = opts;
     opts.nik.radiosity.block = args.block.unwrap_or(0);

@@ -62,6 +62,12 @@
 //!    used, ρ₀ = `residual_scale`; L = 1 when at least `min_lit_lights` lights are above
 //!    the dark level, else ≤ 0.25 (too few lit lights: the normal is a guess).
 //!
+//! **Shiny targets of varying albedo** ([`Options::split_specular`]): normalising scales
+//! the whole tuple, but only the diffuse part of a plastic scales with its albedo. The
+//! table is split into its Lambertian part D (a robust fit of max(0, n·g_k) per light)
+//! and the remainder S (highlight), and each pixel is fitted as t ≈ a·D(n) + b·S(n), the
+//! two-material mixture below with one sphere (`diffuse.rs`).
+//!
 //! **Several materials** (Hertzmann & Seitz): with two tables the model is
 //! t ≈ a·I_A(n) + b·I_B(n), a, b ≥ 0, found by a 2-variable non-negative least-squares
 //! fit for each candidate normal, searched exhaustively on a coarse grid of normals and
@@ -79,12 +85,14 @@
 //! K = 16, table of a radius-150 sphere, 2 cores): about 9 Mpx/s before the
 //! certificate and the rim model, which cost 1.6× the CPU time (measured side by side,
 //! 0.18–0.20 → 0.29–0.30 s per run on a loaded machine; ≈ 94% of pixels are
-//! certified, the rest go through the tree); scikit-learn's `KDTree` (nearest entry
+//! certified, the rest go through the tree; the entries' isolation radii are searched
+//! lazily, for the entries that certify some pixel, and cached); scikit-learn's `KDTree` (nearest entry
 //! only) does 0.42 Mpx/s on comparable data (`benches/sklearn_lookup.py`). The workers
 //! write the output images row by row (`planes.rs`).
 //!
 //! The table itself (building, file format) is in [`table`] and [`format`].
 
+mod diffuse;
 pub mod format;
 pub mod index;
 mod model;
@@ -146,6 +154,13 @@ pub struct Options {
     /// Two tables: standard error of the mixture weights at which the confidence is
     /// halved again (weights are fractions of each reference's brightness). Default 0.025.
     pub weight_scale: f32,
+    /// One table, for targets whose albedo varies on a shiny material: split the table
+    /// into its Lambertian part D and the remainder S (highlight) and fit
+    /// t ≈ a·D(n) + b·S(n), a, b ≥ 0 (`diffuse.rs`; the two-material mixture with one
+    /// sphere). a, the diffuse albedo relative to the sphere's, is returned in
+    /// [`Output::albedo`], (a, b) in [`Output::weights`]. Slower than `normalize` (the
+    /// mixture's exhaustive search runs at every pixel). Default false.
+    pub split_specular: bool,
 }
 
 impl Default for Options {
@@ -160,6 +175,7 @@ impl Default for Options {
             max_iterations: 8,
             residual_scale: 0.05,
             weight_scale: 0.025,
+            split_specular: false,
         }
     }
 }
@@ -214,10 +230,18 @@ pub fn solve(
     progress: &dyn Progress,
 ) -> Result<Output> {
     check_inputs(stack, mask, tables, opts)?;
+    let split;
+    let tables = if opts.split_specular {
+        split = diffuse::split(&tables[0]);
+        &split[..]
+    } else {
+        tables
+    };
     let model = Model::new(tables, opts.normalize);
     let solver = Solver::new(model, opts);
     let (w, h, k) = (stack.width, stack.height, stack.k);
     let mut planes = Planes::new(w, h, tables.len(), opts.normalize);
+    planes.albedo_from_weight = opts.split_specular;
     progress.start("lookup", h as u64);
     let stats = planes
         .rows()
@@ -260,7 +284,13 @@ fn check_inputs(stack: &ImageStack, mask: &Mask, tables: &[Table], opts: &Option
             &format!("#{} ('{}')", i + 1, t.material),
         )?;
     }
-    if tables.len() == 2 && opts.method != Method::Refined {
+    if opts.split_specular && tables.len() != 1 {
+        return Err(Error::invalid(
+            format!("split_specular with {} tables", tables.len()),
+            "the diffuse/specular split takes one table; give one, or turn the split off",
+        ));
+    }
+    if (tables.len() == 2 || opts.split_specular) && opts.method != Method::Refined {
         return Err(Error::invalid(
             format!("method {:?} with two tables", opts.method),
             "mixtures of two materials need Method::Refined",

@@ -20,6 +20,8 @@ pub(crate) struct Planes {
     /// mixture's weight b and standard error.
     with_coef: bool,
     with_mix: bool,
+    /// Also return weight a as the albedo (diffuse/specular split).
+    pub albedo_from_weight: bool,
 }
 
 /// Mutable views of one row of every plane.
@@ -56,6 +58,7 @@ impl Planes {
             lit: vec![0; n],
             with_coef: with_mix || normalize,
             with_mix,
+            albedo_from_weight: false,
         }
     }
 
@@ -104,7 +107,10 @@ impl Planes {
         };
         let [c0, c1] = self.coef;
         let (albedo, weights) = match (self.with_mix, self.with_coef) {
-            (true, _) => (None, Some(vec![img(c0), img(c1)])),
+            (true, _) => (
+                self.albedo_from_weight.then(|| img(c0.clone())),
+                Some(vec![img(c0), img(c1)]),
+            ),
             (false, true) => (Some(img(c0)), None),
             _ => (None, None),
         };

@@ -7,7 +7,7 @@ use super::rim::{Rim, RimBuf};
 use super::single::{self, Buf, Single};
 use super::{Method, Options};
 use crate::image::normalize;
-use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 /// Target number of points of the coarse grid used by the exhaustive searches.
 const COARSE_POINTS: usize = 1500;
@@ -27,6 +27,8 @@ const WARM_FLOOR: f32 = 0.003;
 const ISOLATION_BASIN: f64 = 3.0;
 /// Neighbours searched for an entry's isolation radius.
 const ISOLATION_M: usize = 12;
+/// Bits of an isolation radius not computed yet (a NaN that `isolation_of` never stores).
+const UNSET: u32 = u32::MAX;
 /// A fit within this many grid pixels of the table's edge is refitted on the rim model.
 const RIM_TRIGGER: f64 = 1.0;
 
@@ -107,6 +109,8 @@ pub(crate) struct Work {
     rim: RimBuf,
     /// ‖t‖ of the current pixel.
     norm: f32,
+    /// `q` holds the current pixel's projected query.
+    projected: bool,
     /// The fast path's buffer holds the current fit's tuple.
     fresh: bool,
 }
@@ -123,6 +127,7 @@ impl Work {
             b: Buf::new(k),
             rim: RimBuf::new(k),
             norm: 0.0,
+            projected: false,
             fresh: false,
         }
     }
@@ -161,8 +166,9 @@ pub(crate) struct Solver<'a> {
     peaks: [f32; 2],
     /// The table's extension past its last clean ring (one table, refined lookup).
     rim: Option<Rim>,
-    /// Isolation radius of each entry (see `certified`; one table, refined lookup).
-    isolation: Vec<f32>,
+    /// Isolation radius of each entry as f32 bits, computed when first needed
+    /// ([`UNSET`] before; see `certified`; one table, refined lookup).
+    isolation: Vec<AtomicU32>,
 }
 
 impl<'a> Solver<'a> {
@@ -212,34 +218,25 @@ impl<'a> Solver<'a> {
             coarse_step,
             peaks,
             rim,
-            isolation: Vec::new(),
+            isolation: (0..n).map(|_| AtomicU32::new(UNSET)).collect(),
         }
-        .with_isolation()
     }
 
-    /// The isolation radii of the entries at even grid points (even row and column; 0
-    /// elsewhere): the projected distance to the nearest entry more than
-    /// [`ISOLATION_BASIN`] px away on the grid, or to the last of its [`ISOLATION_M`]
-    /// nearest when all of them are closer (a lower bound).
-    fn with_isolation(mut self) -> Self {
-        let Some(index) = self
-            .index
-            .as_ref()
-            .filter(|_| self.opts.method == Method::Refined)
-        else {
-            return self;
-        };
-        let n = self.model.tables[0].entries.len();
-        let isolation = (0..n as u32)
-            .into_par_iter()
-            .map(|e| {
-                let (gx, gy) = self.entry_grid(e);
-                let Some(p) = index
-                    .point(e)
-                    .filter(|_| gx % 2.0 == 0.0 && gy % 2.0 == 0.0)
-                else {
-                    return 0.0;
-                };
+    /// The isolation radius of entry `e` at an even grid point (even row and column):
+    /// the projected distance to the nearest entry more than [`ISOLATION_BASIN`] px away
+    /// on the grid, or to the last of its [`ISOLATION_M`] nearest when all of them are
+    /// closer (a lower bound). Computed on first use and cached: only the entries that
+    /// certify some pixel's fit are ever searched (racing workers store the same value).
+    fn isolation_of(&self, index: &Index, e: u32) -> f32 {
+        let slot = &self.isolation[e as usize];
+        let bits = slot.load(Ordering::Relaxed);
+        if bits != UNSET {
+            return f32::from_bits(bits);
+        }
+        let (gx, gy) = self.entry_grid(e);
+        let rho = match index.point(e) {
+            None => 0.0,
+            Some(p) => {
                 let cands = index.nearest(p, ISOLATION_M, &[e]);
                 let far = (0..cands.len).find(|&i| {
                     let (x, y) = self.entry_grid(cands.ids[i]);
@@ -251,10 +248,10 @@ impl<'a> Solver<'a> {
                     None if cands.len < ISOLATION_M => f32::INFINITY,
                     None => cands.dist[cands.len - 1].max(0.0).sqrt(),
                 }
-            })
-            .collect();
-        self.isolation = isolation;
-        self
+            }
+        };
+        slot.store(rho.to_bits(), Ordering::Relaxed);
+        rho
     }
 
     /// Table 0's entry at window pixel (r, c), `u32::MAX` where none.
@@ -283,6 +280,7 @@ impl<'a> Solver<'a> {
         let k = self.model.k;
         wk.norm = wk.t[..k].iter().map(|v| v * v).sum::<f32>().sqrt();
         wk.fresh = false;
+        wk.projected = false;
         if let (Some(index), Method::InverseDistance { neighbours }) =
             (&self.index, self.opts.method)
         {
@@ -308,6 +306,9 @@ impl<'a> Solver<'a> {
                 .model
                 .weight_sigma(&wk.t[..k], &wk.w[..k], &fit, &mut wk.s);
             out.weight_sigma = sigma;
+            // the split's specular weight is unidentifiable away from highlights, which
+            // says nothing about the normal
+            let sigma = if self.opts.split_specular { 0.0 } else { sigma };
             let factor = 1.0 / (1.0 + (sigma / self.opts.weight_scale).powi(2));
             out.confidence *= if factor.is_finite() { factor } else { 0.0 };
         }
@@ -375,16 +376,17 @@ impl<'a> Solver<'a> {
     /// the projected space, and the projected distance d bounds the cost from below
     /// (raw matching: cost ≥ d²; normalised: cost ≥ ‖t‖²·min(1, d²/2)).
     fn certified(&self, index: &Index, f: &Fit, wk: &mut Work) -> bool {
-        let k = self.model.k;
         let even = |g: f64| 2 * (0.5 * g).round().max(0.0) as usize;
         let e0 = self.entry_at(even(f.gy), even(f.gx));
         if e0 == u32::MAX {
             return false;
         }
-        let norm = wk.norm;
-        let query = self.query(&wk.t[..k], index, &mut wk.q);
-        let d = index.distance(query, e0).sqrt();
-        self.lower_bound(norm, self.isolation[e0 as usize] - d) >= f.cost
+        // cheap test first: with ρ = ∞ the bound is the largest it can be
+        if self.lower_bound(wk.norm, f32::INFINITY) < f.cost {
+            return false;
+        }
+        let d = index.distance(self.query(index, wk), e0).sqrt();
+        self.lower_bound(wk.norm, self.isolation_of(index, e0) - d) >= f.cost
     }
 
     /// Lower bound of the cost of an entry at projected distance `d` (≤ 0: none) from
@@ -574,9 +576,7 @@ impl<'a> Solver<'a> {
     /// candidates, or with the entries around `near` when checking a fit (seeds only
     /// speed the search up: the candidates are the same).
     fn tree_match(&self, index: &Index, near: Option<&Fit>, weighted: bool, wk: &mut Work) -> Fit {
-        let k = self.model.k;
-        let t = &wk.t[..k];
-        let query = self.query(t, index, &mut wk.q);
+        self.query(index, wk);
         if let Some(f) = near {
             wk.s.seeds.clear();
             let (c0, r0) = (
@@ -590,7 +590,7 @@ impl<'a> Solver<'a> {
                 }
             }
         }
-        let cands = index.nearest(query, self.opts.candidates, &wk.s.seeds);
+        let cands = index.nearest(&wk.q[..index.dims()], self.opts.candidates, &wk.s.seeds);
         wk.s.seeds.clear();
         wk.s.seeds.extend_from_slice(&cands.ids[..cands.len]);
         self.best_of_seeds(weighted, wk)
@@ -620,10 +620,16 @@ impl<'a> Solver<'a> {
         }
     }
 
-    /// Project the (normalised when asked) tuple into the index's space.
-    fn query<'q>(&self, t: &[f32], index: &Index, q: &'q mut [f32]) -> &'q [f32] {
+    /// The current pixel's (normalised when asked) tuple projected into the index's
+    /// space (computed once per pixel, kept in `wk.q`).
+    fn query<'q>(&self, index: &Index, wk: &'q mut Work) -> &'q [f32] {
         let d = index.dims();
-        let (qd, rest) = q.split_at_mut(d);
+        if wk.projected {
+            return &wk.q[..d];
+        }
+        wk.projected = true;
+        let t = &wk.t[..self.model.k];
+        let (qd, rest) = wk.q.split_at_mut(d);
         if self.opts.normalize {
             let norm = t.iter().map(|v| v * v).sum::<f32>().sqrt().max(1e-12);
             for (r, v) in rest.iter_mut().zip(t) {
@@ -708,9 +714,9 @@ impl<'a> Solver<'a> {
     /// The baseline: normals of the m nearest entries averaged with weights 1/distance.
     fn inverse_distance(&self, index: &Index, m: usize, wk: &mut Work) -> PixelOut {
         let k = self.model.k;
+        self.query(index, wk);
         let (t, s) = (&wk.t[..k], &mut wk.s);
-        let query = self.query(t, index, &mut wk.q);
-        let cands = index.nearest(query, m, &s.seeds);
+        let cands = index.nearest(&wk.q[..index.dims()], m, &s.seeds);
         s.seeds.clear();
         s.seeds.extend_from_slice(&cands.ids[..cands.len]);
         let t0 = &self.model.tables[0];

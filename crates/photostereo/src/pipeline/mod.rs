@@ -32,12 +32,13 @@
 mod figures;
 mod load;
 mod outputs;
+mod spatial_stage;
 mod stages;
 
 use crate::error::{Error, Result};
 use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::Progress;
-use crate::{eval, integrate, interreflect, lambertian, lut, mesh, sphere};
+use crate::{eval, integrate, interreflect, lambertian, lut, mesh, spatial, sphere};
 
 pub use figures::{depth_range, masked_mean, run_json, warnings, LOW_CONFIDENCE};
 pub use load::{load, radiance_scale, run, scale_is_known, Inputs, Loaded, Run};
@@ -111,6 +112,12 @@ pub struct Options {
     /// Settings of the interreflection iteration; its integrator is [`Options::method`]
     /// (or the one chosen from the mask).
     pub nik: interreflect::NikOptions,
+    /// The spatial stage after the lookup or the Lambertian solve ([`crate::spatial`]):
+    /// pixels whose data say little about their normal take it from their neighbours.
+    /// `None` = off (each pixel keeps its own normal; the standard errors are still
+    /// computed). Not used with interreflection removal. Default on, with
+    /// `spatial::Options::default()`.
+    pub spatial: Option<spatial::Options>,
 }
 
 // Written out (not derived) so that every new option states its default here.
@@ -125,6 +132,7 @@ impl Default for Options {
             lookup: lut::Options::default(),
             lambertian: lambertian::Options::default(),
             nik: interreflect::NikOptions::default(),
+            spatial: Some(spatial::Options::default()),
         }
     }
 }
@@ -166,8 +174,17 @@ pub struct Output {
     pub normals: NormalMap,
     /// Albedo (Lambertian: absolute; lookup: relative to the sphere, with `normalize`).
     pub albedo: Option<GrayImage>,
-    /// Confidence in [0, 1] (lookup only).
+    /// Confidence in [0, 1] (lookup only); after the spatial stage multiplied by
+    /// [`Output::own_share`].
     pub confidence: Option<GrayImage>,
+    /// Angular standard error (degrees) of each normal from its own data, from the noise
+    /// measured on the target (lookup and Lambertian without interreflection removal).
+    pub normals_sigma: Option<GrayImage>,
+    /// Spatial stage: share in [0, 1] of each pixel's own data in its normal (1 = its own
+    /// data decided it, 0 = its neighbours did).
+    pub own_share: Option<GrayImage>,
+    /// Figures of the spatial stage (when it ran).
+    pub spatial: Option<spatial::Stats>,
     /// Depth (H, W), pixels, larger = closer, NaN outside the mask.
     pub depth: DepthMap,
     /// Triangle mesh of the depth.
@@ -232,15 +249,22 @@ pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Outpu
     figures.extend(figures::summary(
         job, &est, &depth, &mesh, method, &accuracy, &ir,
     ));
+    if let Some(info) = &est.spatial {
+        figures.extend(spatial_stage::rows(info, &job.mask));
+    }
     figures.extend(figures::picture_rows(job, est.albedo.as_ref(), &depth));
     let warnings = figures::warnings(job, est.confidence.as_ref(), opts);
     for w in &warnings {
         progress.note(&format!("warning: {w}"));
     }
+    let sp = est.spatial;
     Ok(Output {
         normals: est.normals,
         albedo: est.albedo,
         confidence: est.confidence,
+        normals_sigma: sp.as_ref().map(|s| s.sigma.clone()),
+        own_share: sp.as_ref().and_then(|s| s.own_share.clone()),
+        spatial: sp.and_then(|s| s.stats),
         depth,
         mesh,
         method,
@@ -275,4 +299,6 @@ struct Estimate {
     albedo: Option<GrayImage>,
     confidence: Option<GrayImage>,
     depth: Option<DepthMap>,
+    /// The spatial stage's products (when it ran).
+    spatial: Option<spatial_stage::SpatialInfo>,
 }

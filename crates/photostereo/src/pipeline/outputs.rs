@@ -19,7 +19,8 @@ pub struct Titles {
 }
 
 /// Write every product of `p` into the directory `out` (created): `normals.npy/png`,
-/// `albedo.npy/png`, `confidence.npy/png`, `depth.npy/png`, `mesh.ply`,
+/// `albedo.npy/png`, `confidence.npy/png`, `normals_sigma.npy/png` and `own_share.npy`
+/// (spatial stage), `depth.npy/png`, `mesh.ply`,
 /// `sphere_overlay.png`, `lights.txt` (Lambertian), `chrome_overlay.png` (lights from a
 /// chrome sphere), `convergence.csv` and plots (those the run has), `report.html` and
 /// `run.json`. `albedo.png` and `depth.png` are the report's pictures
@@ -57,6 +58,15 @@ fn write_maps(out: &Path, job: &Job, p: &Output) -> Result<()> {
     if let Some(c) = &p.confidence {
         io::write_gray_npy(&out.join("confidence.npy"), c)?;
         io::write_gray_png(&out.join("confidence.png"), c)?;
+    }
+    if let Some(sigma) = &p.normals_sigma {
+        io::write_gray_npy(&out.join("normals_sigma.npy"), sigma)?;
+        // false colour over 0–10°, as `photostereo normals` writes it
+        let png = out.join("normals_sigma.png");
+        io::write_colormap_png(&png, sigma, Some(mask), Some((0.0, 10.0)))?;
+    }
+    if let Some(s) = &p.own_share {
+        io::write_gray_npy(&out.join("own_share.npy"), s)?;
     }
     io::write_gray_npy(&out.join("depth.npy"), &p.depth)?;
     let (rgb, _) = raster::depth_picture(&p.depth, Some(mask));
@@ -108,6 +118,15 @@ pub fn build_report(
     }
     if let Some(c) = &p.confidence {
         r.scalar("confidence", c, mask, ColorMap::Viridis)?;
+    }
+    if let Some(sigma) = &p.normals_sigma {
+        let caption = "angular standard error of the normals from their own data (°)";
+        r.scalar(caption, sigma, mask, ColorMap::Viridis)?;
+    }
+    if let Some(s) = &p.own_share {
+        let caption =
+            "spatial stage: share of each pixel's own data (0 = decided by its neighbours)";
+        r.scalar(caption, s, mask, ColorMap::Viridis)?;
     }
     r.depth(&p.depth);
     if let Some(det) = &p.circle {

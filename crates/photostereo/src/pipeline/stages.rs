@@ -2,7 +2,7 @@
 
 use std::time::Instant;
 
-use super::{Accuracy, Estimate, Interreflections, Job, Normals, Options};
+use super::{spatial_stage, Accuracy, Estimate, Interreflections, Job, Normals, Options};
 use crate::error::Result;
 use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::Progress;
@@ -38,14 +38,14 @@ impl<'a> Stages<'a> {
     }
 }
 
-/// Stages before the accuracy one: normals (1 to 3), integration (unless NIK made the
+/// Stages before the accuracy one: normals (1 to 4, the spatial stage included), integration (unless NIK made the
 /// depth), mesh.
 pub(super) fn planned(normals: &Normals, interreflections: bool) -> usize {
     match normals {
-        Normals::Lookup { .. } => 5,
-        Normals::Calibrated(_) => 3,
+        Normals::Lookup { .. } => 6,
+        Normals::Calibrated(_) => 4,
         Normals::Lambertian { .. } if interreflections => 2,
-        Normals::Lambertian { .. } => 3,
+        Normals::Lambertian { .. } => 4,
     }
 }
 
@@ -78,16 +78,19 @@ pub(super) fn normals(
                 lut::Table::build(sphere, &det.circle, &opts.build)
             })?;
             let est = st.run("lookup", |p| lookup(job, &table, opts, p))?;
+            let est = spatial_stage::after_lookup(st, job, &table, opts, est)?;
             (est, Some(det), None)
         }
         Normals::Calibrated(cal) => {
             let est = st.run("lookup", |p| lookup(job, &cal.table, opts, p))?;
+            let est = spatial_stage::after_lookup(st, job, &cal.table, opts, est)?;
             (est, cal.detection.clone(), None)
         }
         Normals::Lambertian { lights } if !opts.interreflections => {
             let est = st.run("Lambertian photometric stereo", |_| {
                 lambertian_normals(&job.target, &job.mask, lights, opts)
             })?;
+            let est = spatial_stage::after_lambertian(st, job, lights, opts, est)?;
             (est, None, None)
         }
         Normals::Lambertian { lights } => {
@@ -126,6 +129,7 @@ fn lookup(job: &Job, table: &lut::Table, opts: &Options, p: &dyn Progress) -> Re
         albedo: out.albedo,
         confidence: Some(out.confidence),
         depth: None,
+        spatial: None,
     })
 }
 
@@ -141,6 +145,7 @@ fn lambertian_normals(
         albedo: Some(out.albedo),
         confidence: None,
         depth: None,
+        spatial: None,
     })
 }
 
@@ -201,6 +206,7 @@ fn nik(
         albedo: Some(best.albedo),
         confidence: None,
         depth: Some(best.depth),
+        spatial: None,
     };
     Ok((ir, est))
 }

@@ -147,26 +147,24 @@ pub fn solve_table(
     noise: &NoiseModel,
     opts: &Options,
 ) -> Result<Output> {
-    let albedo = lookup.albedo.as_ref();
-    let ev = info::from_table(
-        stack,
-        mask,
-        table,
-        &lookup.normals,
-        albedo,
-        noise,
-        opts.shadow_level,
-    );
+    let lookup = (&lookup.normals, lookup.albedo.as_ref());
+    solve_lookup(stack, mask, table, lookup, noise, opts)
+}
+
+/// [`solve_table`] from the parts of a lookup's output it uses: its `normals` and, with
+/// normalised matching, its albedo ratio (`None` otherwise).
+pub fn solve_lookup(
+    stack: &ImageStack,
+    mask: &Mask,
+    table: &Table,
+    (normals, albedo): (&NormalMap, Option<&GrayImage>),
+    noise: &NoiseModel,
+    opts: &Options,
+) -> Result<Output> {
+    let level = opts.shadow_level;
+    let ev = info::from_table(stack, mask, table, normals, albedo, noise, level);
     let mut out = solve(&ev, mask, opts)?;
-    let at = info::from_table(
-        stack,
-        mask,
-        table,
-        &out.normals,
-        albedo,
-        noise,
-        opts.shadow_level,
-    );
+    let at = info::from_table(stack, mask, table, &out.normals, albedo, noise, level);
     out.sigma_deg = at.sigma_deg(mask);
     out.stats.mean_sigma_deg = mean_in(&out.sigma_deg, mask);
     Ok(out)

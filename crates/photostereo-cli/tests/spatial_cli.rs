@@ -1,0 +1,197 @@
+//! The spatial stage through the CLI: `photostereo normals` and `photostereo run` write
+//! `normals_sigma.npy` (and with the stage `own_share.npy`), honour `--no-spatial`, and
+//! the stage lowers the error against the ground truth on a noisy plastic blob
+//! written by `photostereo synth` (128², 16 lights, sphere r = 50, noise 2% of full scale).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use photostereo::io;
+use photostereo::{Mask, NormalMap};
+
+fn tmp(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("spatial-cli")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Run the executable; asserts success, returns stdout.
+fn photostereo(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_photostereo"))
+        .args(args)
+        .output()
+        .expect("start photostereo");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    println!("$ photostereo {}\n{stdout}{stderr}", args.join(" "));
+    assert!(
+        out.status.success(),
+        "photostereo {args:?} failed: {stderr}"
+    );
+    stdout
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// The noisy plastic blob with its sphere, and its table: (dataset dir, table path).
+fn dataset(name: &str) -> (PathBuf, PathBuf) {
+    let dir = tmp(name);
+    let data = dir.join("blob");
+    photostereo(&[
+        "-q",
+        "synth",
+        "--material",
+        "plastic",
+        "--size",
+        "128",
+        "--noise",
+        "0.02",
+        "--seed",
+        "4",
+        "--calib-sphere",
+        "50",
+        "-o",
+        s(&data),
+    ]);
+    let lut = dir.join("sphere.lut");
+    photostereo(&["-q", "calibrate", s(&data.join("sphere")), "-o", s(&lut)]);
+    (data, lut)
+}
+
+/// Mean angular error (degrees) over the mask.
+fn mean_error(est: &NormalMap, gt: &NormalMap, mask: &Mask) -> f64 {
+    photostereo::eval::angular_errors(est, gt, mask)
+        .unwrap()
+        .mean
+}
+
+/// Reads OUT/normals.npy and the ground truth; (error, normals_sigma mean, own_share?).
+fn check_outputs(out: &Path, data: &Path, with_stage: bool) -> f64 {
+    let mask = io::read_mask(&data.join("mask.png")).unwrap();
+    let gt = io::read_normals_npy(&data.join("normal_gt.npy")).unwrap();
+    let n = io::read_normals_npy(&out.join("normals.npy")).unwrap();
+    let sigma = io::read_gray_npy(&out.join("normals_sigma.npy")).unwrap();
+    assert!(out.join("normals_sigma.png").is_file());
+    let inside: Vec<f32> = sigma
+        .data
+        .iter()
+        .zip(&mask.data)
+        .filter(|p| *p.1)
+        .map(|p| *p.0)
+        .collect();
+    assert!(inside
+        .iter()
+        .all(|v| v.is_finite() && (0.0..=90.0).contains(v)));
+    assert!(inside.iter().any(|&v| v > 0.0), "normals_sigma is all zero");
+    assert_eq!(
+        out.join("own_share.npy").is_file(),
+        with_stage,
+        "own_share.npy in {}",
+        out.display()
+    );
+    if with_stage {
+        let share = io::read_gray_npy(&out.join("own_share.npy")).unwrap();
+        let weak = share
+            .data
+            .iter()
+            .zip(&mask.data)
+            .filter(|p| *p.1 && *p.0 < 0.5)
+            .count();
+        // noisy: some pixels are decided by their neighbours
+        assert!(weak > 0, "no pixel decided by its neighbours");
+    }
+    mean_error(&n, &gt, &mask)
+}
+
+#[test]
+fn normals_writes_sigma_and_honours_no_spatial() {
+    let (data, lut) = dataset("normals");
+    let dir = data.parent().unwrap().to_path_buf();
+    let (with, without) = (dir.join("with"), dir.join("without"));
+    photostereo(&["-q", "normals", s(&data), "--lut", s(&lut), "-o", s(&with)]);
+    photostereo(&[
+        "-q",
+        "normals",
+        s(&data),
+        "--lut",
+        s(&lut),
+        "--no-spatial",
+        "-o",
+        s(&without),
+    ]);
+    let e_with = check_outputs(&with, &data, true);
+    let e_without = check_outputs(&without, &data, false);
+    println!("normals: lookup alone {e_without:.2}°, with the spatial stage {e_with:.2}°");
+    // measured: lookup alone 1.79°, with the spatial stage 0.63° (run: 1.78°, 0.65°)
+    assert!(
+        e_with < 0.6 * e_without && e_with < 1.2,
+        "{e_with} vs {e_without}"
+    );
+}
+
+#[test]
+fn run_writes_sigma_reports_the_stage_and_honours_no_spatial() {
+    let (data, _) = dataset("run");
+    let dir = data.parent().unwrap().to_path_buf();
+    let (with, without) = (dir.join("with"), dir.join("without"));
+    let sphere = data.join("sphere");
+    photostereo(&[
+        "-q",
+        "run",
+        "--sphere",
+        s(&sphere),
+        s(&data),
+        "-o",
+        s(&with),
+    ]);
+    photostereo(&[
+        "-q",
+        "run",
+        "--sphere",
+        s(&sphere),
+        s(&data),
+        "--no-spatial",
+        "-o",
+        s(&without),
+    ]);
+    let e_with = check_outputs(&with, &data, true);
+    let e_without = check_outputs(&without, &data, false);
+    println!("run: lookup alone {e_without:.2}°, with the spatial stage {e_with:.2}°");
+    // measured: lookup alone 1.79°, with the spatial stage 0.63° (run: 1.78°, 0.65°)
+    assert!(
+        e_with < 0.6 * e_without && e_with < 1.2,
+        "{e_with} vs {e_without}"
+    );
+    let json = |d: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("run.json")).unwrap()).unwrap()
+    };
+    let (jw, jo) = (json(&with), json(&without));
+    let row = |j: &serde_json::Value| j["figures"]["spatial stage"].as_str().unwrap().to_string();
+    assert!(
+        row(&jw).contains("decided by their neighbours"),
+        "{}",
+        row(&jw)
+    );
+    assert!(row(&jo).starts_with("off"), "{}", row(&jo));
+    let stages = |j: &serde_json::Value| -> Vec<String> {
+        j["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s["stage"].as_str().unwrap().to_string())
+            .collect()
+    };
+    assert!(
+        stages(&jw).contains(&"spatial stage".to_string()),
+        "{:?}",
+        stages(&jw)
+    );
+    let html = std::fs::read_to_string(with.join("report.html")).unwrap();
+    assert!(html.contains("angular standard error of the normals"));
+    assert!(html.contains("decided by their neighbours"));
+}

@@ -1,0 +1,156 @@
+//! The spatial stage of a run ([`crate::spatial`]), after the lookup or the Lambertian
+//! solve: the noise is measured on the target, each pixel gets the angular standard error
+//! of its normal from its own data (`normals_sigma`), and — with
+//! [`super::Options::spatial`] — pixels whose data say little take their normal from
+//! their neighbours (their confidence is multiplied by the share of their own data,
+//! `own_share`). Without it only the standard errors are computed.
+
+use super::stages::Stages;
+use super::{Estimate, Job, Options};
+use crate::error::Result;
+use crate::image::{GrayImage, Lights, Mask};
+use crate::lut::Table;
+use crate::spatial::{self, NoiseModel};
+
+/// What the stage adds to the normals' estimate.
+#[derive(Clone, Debug)]
+pub(super) struct SpatialInfo {
+    /// Noise measured on the target.
+    pub noise: NoiseModel,
+    /// Angular standard error of each normal from its own data (degrees).
+    pub sigma: GrayImage,
+    /// Share of each pixel's own data in its normal (spatial stage on).
+    pub own_share: Option<GrayImage>,
+    /// Figures of the spatial solve (spatial stage on).
+    pub stats: Option<spatial::Stats>,
+}
+
+/// The stage's name in the timings.
+fn name(opts: &Options) -> &'static str {
+    if opts.spatial.is_some() {
+        "spatial stage"
+    } else {
+        "normals' standard errors"
+    }
+}
+
+/// After a lookup with `table`.
+pub(super) fn after_lookup(
+    st: &mut Stages,
+    job: &Job,
+    table: &Table,
+    opts: &Options,
+    mut est: Estimate,
+) -> Result<Estimate> {
+    st.run(name(opts), |_| {
+        let (stack, mask) = (&job.target, &job.mask);
+        let noise = NoiseModel::estimate(stack, mask);
+        let albedo = est.albedo.as_ref();
+        let info = match &opts.spatial {
+            None => {
+                let level = opts.lookup.shadow_level;
+                let ev = spatial::info::from_table(
+                    stack,
+                    mask,
+                    table,
+                    &est.normals,
+                    albedo,
+                    &noise,
+                    level,
+                );
+                own_only(noise, ev.sigma_deg(mask))
+            }
+            Some(sp_opts) => {
+                let lookup = (&est.normals, albedo);
+                let sp = spatial::solve_lookup(stack, mask, table, lookup, &noise, sp_opts)?;
+                est.normals = sp.normals;
+                est.confidence = est
+                    .confidence
+                    .as_ref()
+                    .map(|c| spatial::confidence_after(c, &sp.own_share));
+                SpatialInfo {
+                    noise,
+                    sigma: sp.sigma_deg,
+                    own_share: Some(sp.own_share),
+                    stats: Some(sp.stats),
+                }
+            }
+        };
+        est.spatial = Some(info);
+        Ok(est)
+    })
+}
+
+/// After a Lambertian solve with `lights` (its albedo in `est`).
+pub(super) fn after_lambertian(
+    st: &mut Stages,
+    job: &Job,
+    lights: &Lights,
+    opts: &Options,
+    mut est: Estimate,
+) -> Result<Estimate> {
+    st.run(name(opts), |_| {
+        let (stack, mask) = (&job.target, &job.mask);
+        let noise = NoiseModel::estimate(stack, mask);
+        let ones;
+        let albedo = match &est.albedo {
+            Some(a) => a,
+            None => {
+                ones = GrayImage::from_fn(mask.width, mask.height, |_, _| 1.0);
+                &ones
+            }
+        };
+        let ev = spatial::info::from_lambertian(stack, mask, lights, &est.normals, albedo, &noise);
+        let info = match &opts.spatial {
+            None => own_only(noise, ev.sigma_deg(mask)),
+            Some(sp_opts) => {
+                let sp = spatial::solve(&ev, mask, sp_opts)?;
+                est.normals = sp.normals;
+                SpatialInfo {
+                    noise,
+                    sigma: sp.sigma_deg,
+                    own_share: Some(sp.own_share),
+                    stats: Some(sp.stats),
+                }
+            }
+        };
+        est.spatial = Some(info);
+        Ok(est)
+    })
+}
+
+fn own_only(noise: NoiseModel, sigma: GrayImage) -> SpatialInfo {
+    SpatialInfo {
+        noise,
+        sigma,
+        own_share: None,
+        stats: None,
+    }
+}
+
+/// The report's and `run.json`'s rows of the stage.
+pub(super) fn rows(info: &SpatialInfo, mask: &Mask) -> Vec<(String, String)> {
+    let n = info.noise;
+    let mut f = vec![
+        (
+            "noise measured on the target".to_string(),
+            format!("σ = √({:.3e}² + {:.3e}·I)", n.read, n.gain),
+        ),
+        (
+            "mean angular standard error of the normals, own data (°)".to_string(),
+            format!("{:.2}", spatial::mean_in(&info.sigma, mask)),
+        ),
+    ];
+    let row = match &info.stats {
+        Some(s) => format!(
+            "{} of {} pixels decided by their neighbours ({:.1}%), {} discontinuity cuts",
+            s.decided_by_neighbours,
+            s.pixels,
+            100.0 * s.decided_by_neighbours as f64 / s.pixels.max(1) as f64,
+            s.cut_triples
+        ),
+        None => "off (every pixel keeps its own normal)".to_string(),
+    };
+    f.push(("spatial stage".to_string(), row));
+    f
+}
