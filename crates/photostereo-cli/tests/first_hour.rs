@@ -1,8 +1,9 @@
 //! A new user's first hour (issue 15): the commands that used to stop with a dead end.
 //!
 //! Interreflection removal on the default 256² and on 512² images chooses its facet
-//! block itself in every entry point (`synth`, `interreflect`, `run`); `bench --only`
-//! rejects a row name it does not know and lists the ones it does.
+//! block itself in every entry point (`synth`, `interreflect`, `run`, `demo --size 512`);
+//! `bench --only` rejects a row name it does not know and lists the ones it does;
+//! warnings, pictures and messages; progress as plain lines when stderr is not a terminal.
 
 #[path = "../../photostereo/tests/shared_data/mod.rs"]
 mod shared_data;
@@ -335,5 +336,76 @@ fn bad_paths_are_named_with_the_fix() {
     assert!(
         t.contains("damaged") && t.contains("photostereo calibrate"),
         "{t}"
+    );
+}
+
+/// `demo --size 512` used to stop after the vase (too many facets for the bowl): every
+/// scene now runs through and writes its report.
+#[test]
+fn demo_at_512_runs_every_scene() {
+    let out = out_dir("demo512");
+    let o = photostereo(&["-q", "demo", "--size", "512", "-o"], &[&out]);
+    assert!(o.status.success(), "demo --size 512: {}", text(&o));
+    for scene in ["vase", "bowl"] {
+        assert!(out.join(scene).join("report.html").is_file(), "{scene}");
+    }
+}
+
+/// Without a terminal (a pipe, as here) progress comes as plain lines on stderr: each
+/// stage when it starts and ends (with its time), and each interreflection iteration
+/// when it ends.
+#[test]
+fn progress_is_logged_as_lines_without_a_terminal() {
+    let data = out_dir("progress-bowl");
+    let o = photostereo(
+        &[
+            "-q",
+            "synth",
+            "--shape",
+            "bowl",
+            "--material",
+            "lambertian",
+            "-k",
+            "8",
+            "--size",
+            "48",
+            "--interreflections",
+            "-o",
+        ],
+        &[&data],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let o = photostereo(
+        &["interreflect", "--max-iter", "3", "--tol", "0", "-o"],
+        &[&out_dir("progress-ir"), &data],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    for it in [
+        "iteration 0 (raw)",
+        "iteration 1/3:",
+        "iteration 2/3:",
+        "iteration 3/3:",
+    ] {
+        assert!(err.contains(it), "no '{it}' on stderr:\n{err}");
+    }
+    let o = photostereo(
+        &["run", "--lambertian", "--image-scale", "1"],
+        &[&data, Path::new("-o"), &out_dir("progress-run")],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let starts = err
+        .lines()
+        .filter(|l| l.starts_with('[') && l.ends_with(" ..."))
+        .count();
+    let ends = err
+        .lines()
+        .filter(|l| l.starts_with('[') && l.ends_with(" s"))
+        .count();
+    // measured: 4 stages (Lambertian normals, spatial stage, integration, mesh) + accuracy
+    assert!(
+        starts >= 4 && starts == ends,
+        "stage lines {starts}/{ends}:\n{err}"
     );
 }

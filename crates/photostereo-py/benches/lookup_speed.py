@@ -1,6 +1,7 @@
 """Lookup speed through Python next to the CLI's, on the same data (run by hand):
 
     python crates/photostereo-py/benches/lookup_speed.py [SIZE] [REPEATS]
+    python crates/photostereo-py/benches/lookup_speed.py bench-row [REPEATS]
 
 Renders a shiny vase (SIZE², 16 lights) and its calibration sphere (radius 0.3 × SIZE)
 with `photostereo synth`, then REPEATS rounds, each in a random order (so that neither
@@ -16,6 +17,12 @@ side always runs right after the other's process):
 
 Prints the median and best of each, and the median of the per-round ratios Python / CLI.
 On a loaded machine wall times swing by 2×: compare the ratios, not the seconds.
+
+`bench-row` compares CPU seconds instead (what a busy machine does not change): the CLI's
+`photostereo bench --only lookup` row (1024² shiny vase, K = 16, table from a sphere of
+radius 150 at its known circle; "cpu s/run" = CPU time of all threads per call) next to
+`Table.lookup` on the same scene rendered by `photostereo synth` (16-bit PNGs) with the
+table built at the same circle, alternating, REPEATS timed calls each.
 """
 
 import json
@@ -87,5 +94,34 @@ def main():
               f"of bests {min(t[name]) / min(t['cli']):.3f}")
 
 
+def bench_row(reps):
+    d = Path(tempfile.mkdtemp())
+    vase = d / "vase"
+    subprocess.run([BIN, "-q", "synth", "--shape", "vase", "-k", "16", "--size", "1024",
+                    "--calib-sphere", "150", "-o", vase], check=True)
+    ds = ps.load_dataset(vase)
+    k, h, w = ps.load_dataset(vase / "sphere").images.shape
+    table = ps.calibrate(vase / "sphere", circle=(w / 2, h / 2, 150.0))
+    table.lookup(ds)  # warm-up, as the bench's untimed preparation
+    cli, py = [], []
+    for _ in range(3):
+        r = subprocess.run([BIN, "bench", "--only", "lookup", "--repeat", str(reps)],
+                           check=True, capture_output=True, text=True)
+        row = next(line for line in r.stdout.splitlines() if line.startswith("lookup"))
+        cli.append(float(row.split()[3]))
+        for _ in range(reps):
+            c0 = cpu_seconds()
+            table.lookup(ds)
+            py.append(cpu_seconds() - c0)
+    print(f"1024x1024 vase, {int(ds.mask.sum())} mask pixels, K = 16, load average "
+          f"{os.getloadavg()[0]:.1f}; CPU seconds per lookup (all threads)")
+    print(f"CLI bench lookup row: median {st.median(cli):.4f} (of {len(cli)} runs of {reps})")
+    print(f"Python Table.lookup:  median {st.median(py):.4f} (of {len(py)} calls)")
+    print(f"Python / CLI CPU: {st.median(py) / st.median(cli):.3f}")
+
+
 if __name__ == "__main__":
-    main()
+    if len(sys.argv) > 1 and sys.argv[1] == "bench-row":
+        bench_row(int(sys.argv[2]) if len(sys.argv) > 2 else 3)
+    else:
+        main()

@@ -7,7 +7,7 @@ use numpy::{PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3};
 use photostereo::image::{GrayImage, ImageStack, Mask};
 use photostereo::progress::NoProgress;
 use photostereo::{integrate as integ, interreflect as ir, lambertian as lamb, lightcal};
-use photostereo::{lut, pipeline, sphere};
+use photostereo::{lut, pipeline, spatial as sp, sphere};
 use pyo3::prelude::*;
 
 use crate::convert::{self, value_error};
@@ -31,6 +31,14 @@ pub struct LookupResult {
     /// Mixture weights [(H, W), (H, W)] for two tables, else None.
     #[pyo3(get)]
     weights: Option<Vec<Py<PyArray2<f32>>>>,
+    /// (H, W) float32 angular standard error (degrees) of each normal from its own data
+    /// (lookup with spatial=True), else None.
+    #[pyo3(get)]
+    normals_sigma: Option<Py<PyArray2<f32>>>,
+    /// (H, W) float32 share in [0, 1] of each pixel's own data in its normal (spatial
+    /// stage; 0 = its neighbours decided it), else None.
+    #[pyo3(get)]
+    own_share: Option<Py<PyArray2<f32>>>,
 }
 
 #[pymethods]
@@ -58,9 +66,13 @@ fn mask_or_full(mask: Option<PyReadonlyArray2<'_, bool>>, s: &ImageStack) -> Mas
         .unwrap_or_else(|| Mask::full(s.width, s.height))
 }
 
-/// lookup(images, names, tables, mask=None, normalize=False) -> Result
+/// lookup(images, names, tables, mask=None, normalize=False, spatial=False) -> Result
+///
+/// With `spatial`, the spatial stage of `photostereo normals` follows the lookup (one
+/// table): the noise measured on the target, the spatial solve, the confidence times
+/// each pixel's own share.
 #[pyfunction]
-#[pyo3(signature = (images, names, tables, mask=None, normalize=false))]
+#[pyo3(signature = (images, names, tables, mask=None, normalize=false, spatial=false))]
 pub fn lookup(
     py: Python<'_>,
     images: PyReadonlyArray3<'_, f32>,
@@ -68,25 +80,48 @@ pub fn lookup(
     tables: Vec<PyRef<'_, Table>>,
     mask: Option<PyReadonlyArray2<'_, bool>>,
     normalize: bool,
+    spatial: bool,
 ) -> PyResult<LookupResult> {
     let stack = convert::stack_from(&images, names)?;
     let mask = mask_or_full(mask, &stack);
     let tables: Vec<lut::Table> = tables.iter().map(|t| t.cal.table.clone()).collect();
+    if spatial && tables.len() != 1 {
+        return Err(value_error(format!(
+            "spatial=True with {} tables: the spatial stage models one table (mixtures are \
+             not modelled); give one table or spatial=False",
+            tables.len()
+        )));
+    }
     let opts = lut::Options {
         normalize,
         ..Default::default()
     };
-    let out = crate::compute(py, move || {
-        lut::solve(&stack, &mask, &tables, &opts, &NoProgress)
+    let (out, sp) = crate::compute(py, move || {
+        let out = lut::solve(&stack, &mask, &tables, &opts, &NoProgress)?;
+        if !spatial {
+            return Ok((out, None));
+        }
+        let noise = sp::NoiseModel::estimate(&stack, &mask);
+        let s = sp::solve_table(&stack, &mask, &tables[0], &out, &noise, &Default::default())?;
+        Ok((out, Some(s)))
     })?;
+    let (normals, confidence, sigma, share) = match sp {
+        None => (out.normals, out.confidence, None, None),
+        Some(s) => {
+            let c = sp::confidence_after(&out.confidence, &s.own_share);
+            (s.normals, c, Some(s.sigma_deg), Some(s.own_share))
+        }
+    };
     Ok(LookupResult {
-        normals: convert::normals_to_py(py, out.normals).unbind(),
+        normals: convert::normals_to_py(py, normals).unbind(),
         albedo: out.albedo.map(|a| gray(py, a)),
-        confidence: Some(gray(py, out.confidence)),
+        confidence: Some(gray(py, confidence)),
         residual: gray(py, out.residual),
         weights: out
             .weights
             .map(|w| w.into_iter().map(|g| gray(py, g)).collect()),
+        normals_sigma: sigma.map(|g| gray(py, g)),
+        own_share: share.map(|g| gray(py, g)),
     })
 }
 
@@ -115,6 +150,8 @@ pub fn lambertian(
         confidence: None,
         residual: gray(py, out.residual),
         weights: None,
+        normals_sigma: None,
+        own_share: None,
     })
 }
 
@@ -247,10 +284,11 @@ type InterreflectOut<'py> = (
     usize,
 );
 
-/// interreflect(images, lights, mask, max_iter, tol, method) ->
+/// interreflect(images, lights, mask, max_iter, tol, method, block) ->
 /// (normals, albedo, depth, summary, csv, [(t, depth_range, mean_albedo, change)], best)
 #[pyfunction]
-#[pyo3(signature = (images, lights, mask=None, max_iter=10, tol=0.01, method=None))]
+#[pyo3(signature = (images, lights, mask=None, max_iter=10, tol=0.01, method=None, block=None))]
+#[allow(clippy::too_many_arguments)]
 pub fn interreflect<'py>(
     py: Python<'py>,
     images: PyReadonlyArray3<'_, f32>,
@@ -259,6 +297,7 @@ pub fn interreflect<'py>(
     max_iter: usize,
     tol: f32,
     method: Option<&str>,
+    block: Option<usize>,
 ) -> PyResult<InterreflectOut<'py>> {
     let stack = convert::stack_from(&images, Vec::new())?;
     let lights = convert::lights_from(&lights)?;
@@ -269,6 +308,7 @@ pub fn interreflect<'py>(
         ..Default::default()
     };
     opts.integrate.method = self::method(method, &mask)?;
+    opts.radiosity.block = block.unwrap_or(0);
     let out = crate::compute(py, move || {
         ir::solve(&stack, &mask, &lights, &opts, &NoProgress)
     })?;
@@ -293,9 +333,10 @@ pub fn interreflect<'py>(
 }
 
 /// run(target, out, sphere=None, table=None, lambertian=False, lights=None, chrome=None,
-/// mask=None, image_scale=None, interreflections=False, method=None) -> run.json text
+/// mask=None, image_scale=None, interreflections=False, method=None, spatial=True,
+/// block=None) -> run.json text
 #[pyfunction]
-#[pyo3(signature = (target, out, sphere=None, table=None, lambertian=false, lights=None, chrome=None, mask=None, image_scale=None, interreflections=false, method=None))]
+#[pyo3(signature = (target, out, sphere=None, table=None, lambertian=false, lights=None, chrome=None, mask=None, image_scale=None, interreflections=false, method=None, spatial=true, block=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     py: Python<'_>,
@@ -310,6 +351,8 @@ pub fn run(
     image_scale: Option<f32>,
     interreflections: bool,
     method: Option<&str>,
+    spatial: bool,
+    block: Option<usize>,
 ) -> PyResult<String> {
     let inputs = pipeline::Inputs {
         target,
@@ -329,6 +372,11 @@ pub fn run(
         interreflections,
         ..Default::default()
     };
+    let mut opts = pipeline::Options {
+        spatial: opts.spatial.filter(|_| spatial),
+        ..opts
+    };
+    opts.nik.radiosity.block = block.unwrap_or(0);
     let done = crate::compute(py, move || pipeline::run(&inputs, &out, &opts, &NoProgress))?;
     Ok(done.json.to_string())
 }

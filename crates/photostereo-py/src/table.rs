@@ -58,20 +58,22 @@ impl Table {
         self.cal.detection.as_ref().map(|d| d.rms_residual_px)
     }
 
-    /// lookup(target, *, mask=None, normalize=False) -> Result: normals of `target` (a
-    /// Dataset, a dataset directory or a (K, H, W) array under the same lights) by this
-    /// table; see `photostereo.lookup`.
-    #[pyo3(signature = (target, *, mask=None, normalize=false))]
+    /// lookup(target, *, mask=None, normalize=False, spatial=False) -> Result: normals of
+    /// `target` (a Dataset, a dataset directory or a (K, H, W) array under the same
+    /// lights) by this table; see `photostereo.lookup`.
+    #[pyo3(signature = (target, *, mask=None, normalize=false, spatial=false))]
     fn lookup<'py>(
         slf: &Bound<'py, Self>,
         py: Python<'py>,
         target: Bound<'py, PyAny>,
         mask: Option<Bound<'py, PyAny>>,
         normalize: bool,
+        spatial: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
         let kwargs = pyo3::types::PyDict::new(py);
         kwargs.set_item("mask", mask)?;
         kwargs.set_item("normalize", normalize)?;
+        kwargs.set_item("spatial", spatial)?;
         let tables = pyo3::types::PyList::new(py, [slf])?;
         py.import("photostereo")?
             .getattr("lookup")?
@@ -119,9 +121,8 @@ impl Table {
         let det = me.cal.detection.as_ref().map(|d| {
             (
                 (d.circle.cx, d.circle.cy, d.circle.radius),
-                d.rms_residual_px,
-                d.inliers,
-                d.edge_points,
+                (d.rms_residual_px, d.uncertainty_px, d.rim_blur_px),
+                (d.inliers, d.edge_points, d.fitted_on),
                 (d.max_image.width, d.max_image.height),
                 d.max_image.data.clone(),
             )
@@ -136,19 +137,17 @@ impl Table {
 
     /// Rebuild a table pickled by `__reduce__`.
     #[staticmethod]
-    #[allow(clippy::type_complexity)]
-    fn _from_state(
-        py: Python<'_>,
-        bytes: Vec<u8>,
-        det: Option<((f64, f64, f64), f64, usize, usize, (usize, usize), Vec<f32>)>,
-    ) -> PyResult<Table> {
+    fn _from_state(py: Python<'_>, bytes: Vec<u8>, det: Option<DetState>) -> PyResult<Table> {
         let table = crate::compute(py, move || lut::Table::from_bytes(&bytes))?;
         let detection = det.map(
-            |((cx, cy, r), rms, inliers, edges, (w, h), data)| Detection {
+            |((cx, cy, r), (rms, unc, blur), (inliers, edges, on), (w, h), data)| Detection {
                 circle: Circle { cx, cy, radius: r },
                 rms_residual_px: rms,
+                uncertainty_px: unc,
+                rim_blur_px: blur,
                 inliers,
                 edge_points: edges,
+                fitted_on: fitted_on(&on),
                 max_image: GrayImage {
                     width: w,
                     height: h,
@@ -160,6 +159,24 @@ impl Table {
             cal: Calibration { table, detection },
         })
     }
+}
+
+/// A pickled detection: circle, (rms, uncertainty, rim blur), (inliers, edge points,
+/// fitted on), max image size and pixels.
+type DetState = (
+    (f64, f64, f64),
+    (f64, f64, Option<f64>),
+    (usize, usize, String),
+    (usize, usize),
+    Vec<f32>,
+);
+
+/// The library's name of the image a circle was fitted on ([`Detection::fitted_on`]).
+fn fitted_on(name: &str) -> &'static str {
+    ["maximum", "mean", "edge points", "mask outline", "given"]
+        .into_iter()
+        .find(|n| *n == name)
+        .unwrap_or("given")
 }
 
 /// calibrate(images, names, mask, circle, sphere_region, rim, material, smooth) -> Table

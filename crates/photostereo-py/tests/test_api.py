@@ -73,6 +73,19 @@ def test_lookup_equals_cli(data, cli, tmp_path):
     # the same table file read by Python
     got2 = ps.Table.load(lut).lookup(data["blob"]).normals
     assert np.abs(got2 - want).max() <= 1e-4
+    # with the spatial stage: `normals` by default, and its extra maps
+    cli("normals", data["blob"], "--lut", lut, "-o", tmp_path / "s")
+    res = ps.Table.load(lut).lookup(data["blob"], spatial=True)
+    for name, got3 in [("normals", res.normals), ("confidence", res.confidence),
+                       ("normals_sigma", res.normals_sigma), ("own_share", res.own_share)]:
+        want3 = np.load(tmp_path / "s" / f"{name}.npy")
+        assert got3.dtype == np.float32 and got3.shape == want3.shape
+        diff = np.nanmax(np.abs(got3 - want3))
+        print(f"spatial lookup vs CLI normals: {name} max |diff| {diff:.2e}")
+        assert diff <= 1e-4, name
+    assert res.own_share.min() < 1.0  # the stage moved some pixel
+    with pytest.raises(ValueError, match="one table"):
+        ps.lookup(data["blob"], [ps.Table.load(lut)] * 2, spatial=True)
 
 
 def test_lookup_from_arrays(data):
@@ -185,6 +198,13 @@ def test_run_equals_cli(data, cli, tmp_path):
     want = json.loads((tmp_path / "cli" / "run.json").read_text())
     assert got["figures"] == want["figures"]
     assert got == json.loads((tmp_path / "py" / "run.json").read_text())
+    # spatial=False is `run --no-spatial`
+    off = ps.run(data["blob"], tmp_path / "py0", sphere=data["sphere"], spatial=False)
+    cli("run", data["blob"], "--sphere", data["sphere"], "--no-spatial", "-o", tmp_path / "cli0")
+    assert off["figures"] == json.loads((tmp_path / "cli0" / "run.json").read_text())["figures"]
+    np.testing.assert_array_equal(
+        np.load(tmp_path / "py0" / "normals.npy"), np.load(tmp_path / "cli0" / "normals.npy")
+    )
     for f in ("normals.npy", "depth.npy", "confidence.npy"):
         a, b = np.load(tmp_path / "py" / f), np.load(tmp_path / "cli" / f)
         np.testing.assert_array_equal(a, b)

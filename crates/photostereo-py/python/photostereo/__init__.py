@@ -143,6 +143,7 @@ def lookup(
     *,
     mask: Optional[np.ndarray] = None,
     normalize: bool = False,
+    spatial: bool = False,
 ) -> Result:
     """Normals of a target by table lookup (``photostereo normals --lut``).
 
@@ -152,15 +153,26 @@ def lookup(
         t = a I_A(n) + b I_B(n), a, b >= 0; the weights come back in ``.weights``).
     mask: (H, W) bool pixels to solve (default: the dataset's mask, else all).
     normalize: fit an albedo relative to the sphere (``.albedo``), for albedo changes.
+    spatial: follow the lookup with the spatial stage, as ``photostereo normals`` does
+        by default (one table): pixels whose data say little take their normal from
+        their neighbours; ``.normals_sigma`` (degrees) and ``.own_share`` come back and
+        the confidence is multiplied by the own share. Default False: every pixel keeps
+        its own match (``normals --no-spatial``; ``lut::solve`` alone).
 
     Returns a :class:`Result`: ``.normals`` (H, W, 3) float32, ``.confidence`` (H, W),
-    ``.albedo`` (normalize only), ``.residual``, ``.weights`` (two tables).
+    ``.albedo`` (normalize only), ``.residual``, ``.weights`` (two tables),
+    ``.normals_sigma`` and ``.own_share`` (spatial only).
     """
     if isinstance(tables, Table):
         tables = [tables]
     ds = _dataset(target)
     return _native.lookup(
-        ds.images, ds.names, list(tables), mask=_mask(mask, ds.mask), normalize=normalize
+        ds.images,
+        ds.names,
+        list(tables),
+        mask=_mask(mask, ds.mask),
+        normalize=normalize,
+        spatial=spatial,
     )
 
 
@@ -287,6 +299,7 @@ def interreflect(
     tol: float = 0.01,
     image_scale: float = 1.0,
     method: str = "auto",
+    block: Optional[int] = None,
 ) -> dict:
     """Remove interreflections (Nayar-Ikeuchi-Kanade iteration, ``photostereo interreflect``).
 
@@ -295,6 +308,7 @@ def interreflect(
     lights: (K, 3) directions (default: the dataset's); mask: (H, W) bool.
     max_iter: most compensation steps; tol: stop when the change of the shape falls
         below this fraction of the depth range.
+    block: facet size in pixels (default: the smallest >= 2 giving at most 4096 facets).
 
     Returns a dict: "normals" (H, W, 3), "albedo" (H, W), "depth" (H, W) of the kept
     iterate, "summary", "csv", "iterations" (list of dicts: depth_range, mean_albedo,
@@ -315,6 +329,7 @@ def interreflect(
         max_iter=int(max_iter),
         tol=float(tol),
         method=method,
+        block=None if block is None else int(block),
     )
     return {
         "normals": normals,
@@ -342,6 +357,8 @@ def run(
     image_scale: Optional[float] = None,
     method: Optional[str] = None,
     mask: Optional[PathLike] = None,
+    spatial: bool = True,
+    block: Optional[int] = None,
 ) -> dict:
     """The whole job on a dataset directory, as ``photostereo run`` (same outputs).
 
@@ -353,6 +370,9 @@ def run(
     image_scale: factor to bring the images to radiance units (Lambertian).
     method: integrator ("path", "fc", "fc-reflect", "dct", "lsq"; default from the mask).
     mask: mask file instead of the dataset's mask.png.
+    spatial: the spatial stage after the normals (default on, as the CLI): pixels whose
+        data say little take their normal from their neighbours (``--no-spatial``: False).
+    block: facet size in pixels for interreflections (default: chosen from the size).
 
     Writes normals.npy/png, albedo, confidence, depth.npy/png, mesh.ply, run.json,
     report.html into ``out``; returns what run.json holds (a dict).
@@ -371,5 +391,7 @@ def run(
         image_scale=image_scale,
         interreflections=interreflections,
         method=method,
+        spatial=spatial,
+        block=block,
     )
     return json.loads(text)

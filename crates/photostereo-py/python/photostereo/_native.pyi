@@ -69,6 +69,12 @@ class Result:
     @property
     def weights(self) -> Optional[list[F32]]:
         """Two (H, W) mixture weights (a, b) with two tables, else None."""
+    @property
+    def normals_sigma(self) -> Optional[F32]:
+        """(H, W) angular standard error (degrees) of each normal from its own data (lookup with spatial=True)."""
+    @property
+    def own_share(self) -> Optional[F32]:
+        """(H, W) share in [0, 1] of each pixel's own data in its normal (spatial stage)."""
 
 class Table:
     """A lookup table intensity tuple -> normal, from a calibration sphere."""
@@ -96,8 +102,10 @@ class Table:
         *,
         mask: Optional[Bool] = None,
         normalize: bool = False,
+        spatial: bool = False,
     ) -> Result:
-        """Normals of target (a Dataset, directory or (K, H, W) array) by this table."""
+        """Normals of target (a Dataset, directory or (K, H, W) array) by this table;
+        spatial=True adds the spatial stage (as ``photostereo normals`` by default)."""
     def save(self, path: PathLike) -> None:
         """Write the .lut file (as ``photostereo calibrate``), atomically."""
     @staticmethod
@@ -125,8 +133,10 @@ def lookup(
     tables: Sequence[Table],
     mask: Optional[Bool] = None,
     normalize: bool = False,
+    spatial: bool = False,
 ) -> Result:
-    """Normals of (K, H, W) images by one table, or two for a mixture."""
+    """Normals of (K, H, W) images by one table, or two for a mixture; spatial=True
+    adds the spatial stage (one table)."""
 
 def lambertian(images: F32, lights: F32, mask: Optional[Bool] = None, robust: bool = True) -> Result:
     """Lambertian photometric stereo with known (K, 3) lights."""
@@ -159,6 +169,7 @@ def interreflect(
     max_iter: int = 10,
     tol: float = 0.01,
     method: Optional[str] = None,
+    block: Optional[int] = None,
 ) -> tuple[F32, F32, F32, str, str, list[tuple[int, float, float, float]], int]:
     """Nayar-Ikeuchi-Kanade iteration: (normals, albedo, depth, summary, csv, rows, best)."""
 
@@ -174,5 +185,7 @@ def run(
     image_scale: Optional[float] = None,
     interreflections: bool = False,
     method: Optional[str] = None,
+    spatial: bool = True,
+    block: Optional[int] = None,
 ) -> str:
     """The whole ``photostereo run``; returns the run.json text."""
