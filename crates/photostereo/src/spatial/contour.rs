@@ -28,6 +28,13 @@ pub(crate) fn contour_normals(mask: &Mask) -> Vec<(usize, [f32; 2])> {
         }
     }
     let radius = (3.0 * SMOOTH).ceil() as i64;
+    let side = (2 * radius + 1) as usize;
+    let gauss: Vec<f32> = (0..side * side)
+        .map(|j| {
+            let (dr, dc) = ((j / side) as i64 - radius, (j % side) as i64 - radius);
+            (-((dr * dr + dc * dc) as f32) / (2.0 * SMOOTH * SMOOTH)).exp()
+        })
+        .collect();
     edge.into_iter()
         .filter_map(|(r, c)| {
             // gradient of the Gaussian-smoothed mask at (r, c): Σ m · ∇G
@@ -43,7 +50,7 @@ pub(crate) fn contour_normals(mask: &Mask) -> Vec<(usize, [f32; 2])> {
                     if !inside {
                         continue;
                     }
-                    let g = (-((dr * dr + dc * dc) as f32) / (2.0 * SMOOTH * SMOOTH)).exp();
+                    let g = gauss[(dr + radius) as usize * side + (dc + radius) as usize];
                     gr += g * dr as f32;
                     gc += g * dc as f32;
                 }

@@ -326,32 +326,29 @@ fn finish(
     iterations: usize,
 ) -> Output {
     let a = &ev.a;
-    let w = ev.width;
+    let (w, h) = (ev.width, ev.height);
     let fine = &levels[0];
-    let inside = |r: usize, c: usize| *mask.get(r, c);
-    let own_share = GrayImage::from_fn(w, ev.height, |r, c| {
-        if inside(r, c) {
-            fine.own_share(r * w + c)
-        } else {
-            0.0
+    // (own share, normal, σ_θ) per pixel, in parallel
+    let per: Vec<(f32, [f32; 3], f32)> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            if !mask.data[i] {
+                return (0.0, [0.0; 3], 0.0);
+            }
+            let n = to_normal(x[i]);
+            (fine.own_share(i), n, angular_sigma_deg([n[0], n[1]], a[i]))
+        })
+        .collect();
+    fn image<T>(width: usize, height: usize, data: Vec<T>) -> crate::image::Image<T> {
+        crate::image::Image {
+            width,
+            height,
+            data,
         }
-    });
-    let normals = NormalMap::from_fn(w, ev.height, |r, c| {
-        if inside(r, c) {
-            to_normal(x[r * w + c])
-        } else {
-            [0.0; 3]
-        }
-    });
-    let sigma_deg = GrayImage::from_fn(w, ev.height, |r, c| {
-        let i = r * w + c;
-        if inside(r, c) {
-            let n = normals.data[i];
-            angular_sigma_deg([n[0], n[1]], a[i])
-        } else {
-            0.0
-        }
-    });
+    }
+    let own_share: GrayImage = image(w, h, per.iter().map(|p| p.0).collect());
+    let normals: NormalMap = image(w, h, per.iter().map(|p| p.1).collect());
+    let sigma_deg: GrayImage = image(w, h, per.iter().map(|p| p.2).collect());
     let pixels = mask.count();
     let in_mask = |img: &GrayImage| -> Vec<f32> {
         img.data

@@ -48,7 +48,7 @@ impl Level {
         mask: &[bool],
         (a, b): (&[[f32; 3]], &[[f32; 2]]),
         lambda: f32,
-        pair_ok: impl Fn(usize, usize, usize) -> bool,
+        pair_ok: impl Fn(usize, usize, usize) -> bool + Sync,
     ) -> Level {
         let ridge = RIDGE * lambda;
         let mut a: Vec<[f32; 3]> = a.to_vec();
@@ -74,17 +74,20 @@ impl Level {
         };
         let mut wh = vec![0.0f32; w * h];
         let mut wv = vec![0.0f32; w * h];
-        for r in 0..h {
-            for c in 0..w {
-                let i = r * w + c;
-                if c > 0 && c + 1 < w {
-                    wh[i] = triple(i, 1);
+        wh.par_chunks_mut(w)
+            .zip(wv.par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(r, (hrow, vrow))| {
+                for c in 0..w {
+                    let i = r * w + c;
+                    if c > 0 && c + 1 < w {
+                        hrow[c] = triple(i, 1);
+                    }
+                    if r > 0 && r + 1 < h {
+                        vrow[c] = triple(i, w);
+                    }
                 }
-                if r > 0 && r + 1 < h {
-                    wv[i] = triple(i, w);
-                }
-            }
-        }
+            });
         Level {
             w,
             h,
@@ -263,7 +266,6 @@ impl Level {
     /// iterations run.
     pub fn solve(&self, x: &mut [[f32; 2]], iterations: usize) -> usize {
         let n = self.w * self.h;
-        let pre = self.preconditioner();
         let mut s = [vec![[0.0f32; 2]; n], vec![[0.0f32; 2]; n]];
         let mut ax = vec![[0.0f32; 2]; n];
         self.apply(x, &mut s, &mut ax);
@@ -274,6 +276,10 @@ impl Level {
             .map(|(b, a)| [b[0] - a[0], b[1] - a[1]])
             .collect();
         let bnorm = dot(&self.b, &self.b).sqrt().max(1e-30);
+        if dot(&r, &r).sqrt() / bnorm < TOLERANCE {
+            return 0; // converged already (e.g. clean data: every pixel keeps its match)
+        }
+        let pre = self.preconditioner();
         let mut z: Vec<[f32; 2]> = mul2(&pre, &r);
         let mut p = z.clone();
         let mut rz = dot(&r, &z);
