@@ -24,7 +24,9 @@
 //! E(v) = Σ_i c_i [ w_i a_h² (v_right − v_i − g_h)² + (1 − w_i) a_h² (v_i − v_left − g_h)²
 //!               + u_i a_v² (v_down − v_i − g_v)² + (1 − u_i) a_v² (v_i − v_up − g_v)² ]
 //!
-//! with c_i the optional per-pixel confidence. The bilateral weights come from the
+//! with c_i the optional per-pixel confidence (with a confidence map, plus the membrane
+//! prior ε (1 − max(c_i, c_j)) (v_j − v_i)² of module `trust` on every edge, so that a
+//! region of untrusted pixels is filled smoothly from its trusted surroundings). The bilateral weights come from the
 //! sigmoid σ_k(x) = 1/(1 + e^(−kx)) of the squared one-sided differences,
 //! w_i = σ_k((a_h(v_i − v_left))² − (a_h(v_right − v_i))²) and likewise u_i: where the
 //! depth jumps on one side, that side's equation is switched off and the surface is
@@ -42,7 +44,7 @@
 //! |a_j (v_j − v_i − g_j)| > CUT.
 
 use super::camera::Camera;
-use super::lsq::Assembled;
+use super::lsq::{Assembled, PRIOR};
 use super::support::Components;
 use crate::error::Result;
 use crate::image::{Mask, NormalMap};
@@ -134,6 +136,9 @@ pub(crate) struct Params {
     pub k: f64,
     pub max_iter: usize,
     pub tol: f64,
+    /// Add the membrane prior of module `trust` (with a weight map): an edge between
+    /// two untrusted pixels is filled smoothly.
+    pub prior: bool,
 }
 
 /// Result of [`integrate`].
@@ -170,11 +175,25 @@ fn sigmoid(x: f64, k: f64) -> f64 {
 }
 
 /// Assemble the normal equations for fixed weights (`wr`: right, `wd`: down).
-fn assemble(f: &Field, conf: &[f64], mask: &Mask, wr: &[f64], wd: &[f64]) -> Assembled {
+fn assemble(
+    f: &Field,
+    conf: &[f64],
+    mask: &Mask,
+    (wr, wd): (&[f64], &[f64]),
+    prior: bool,
+) -> Assembled {
     let w = mask.width;
     let mut sys = Assembled::new(w, mask.height);
+    // Membrane prior on edges whose two ends are both untrusted.
+    let membrane = |i: usize, j: usize| PRIOR * (1.0 - conf[i].max(conf[j])).max(0.0);
     for i in (0..mask.len()).filter(|&i| mask.data[i]) {
         let [right, _, down, _] = neighbours(mask, i);
+        if prior && right {
+            sys.add_edge(i, true, membrane(i, i + 1), 0.0);
+        }
+        if prior && down {
+            sys.add_edge(i, false, membrane(i, i + w), 0.0);
+        }
         if right {
             let j = i + 1;
             sys.add_edge(i, true, conf[i] * wr[i] * f.a_h[i] * f.a_h[i], f.g_h[i]);
@@ -251,7 +270,7 @@ pub(crate) fn integrate(
     };
     progress.start("bini: reweighted least squares", params.max_iter as u64);
     while out.iterations < params.max_iter.max(1) {
-        let mut sys = assemble(f, conf, mask, &wr, &wd);
+        let mut sys = assemble(f, conf, mask, (&wr, &wd), params.prior);
         sys.pin(comps);
         let tol = if params.max_iter <= 1 {
             INNER_TOL.1

@@ -4,7 +4,8 @@
 //! Unknowns: the depth of the N pixels inside the mask. Edges: pairs of 4-neighbours
 //! both inside the mask, e = (i, j) with j right of or below i, target g_e from the
 //! trapezoidal rule (module documentation of [`super`]) and weight
-//! w_e = (w_i + w_j)/2. Minimising Σ w_e (z_j − z_i − g_e)² gives
+//! w_e = min(w_i, w_j) (with a weight map, plus the membrane prior of module `trust`,
+//! see [`with_prior`]). Minimising Σ w_e (z_j − z_i − g_e)² gives
 //!
 //! L z = b,  L = Σ_e w_e (e_j − e_i)(e_j − e_i)ᵀ,  b = Σ_e w_e g_e (e_j − e_i),
 //!
@@ -34,7 +35,13 @@ pub(crate) const TOL: f64 = 1e-7;
 /// CG iterations before falling back to Cholesky.
 pub(crate) const MAX_ITER: usize = 300;
 
-/// Pixel weights: 1 without a map, otherwise sanitised and floored.
+/// Strength ε of the membrane prior ε (1 − t_e) Δz² on an edge of trust t_e (weights
+/// scaled to a maximum of 1; only with a weight map): an edge of no trust is filled
+/// smoothly, a fully trusted one keeps its target (module `trust` of [`super`]).
+pub(crate) const PRIOR: f64 = 0.1;
+
+/// Pixel weights: 1 without a map, otherwise sanitised, scaled to a maximum of 1 and
+/// floored at 1e-4.
 pub(crate) fn pixel_weights(weights: Option<&GrayImage>, mask: &Mask) -> Vec<f64> {
     let Some(wm) = weights else {
         return vec![1.0; mask.len()];
@@ -53,8 +60,23 @@ pub(crate) fn pixel_weights(weights: Option<&GrayImage>, mask: &Mask) -> Vec<f64
         .filter(|(_, &m)| m)
         .map(|(&v, _)| clean(v))
         .fold(0.0, f64::max);
-    let floor = if max > 0.0 { 1e-4 * max } else { 1.0 };
-    wm.data.iter().map(|&v| clean(v).max(floor)).collect()
+    let scale = if max > 0.0 { 1.0 / max } else { 0.0 };
+    wm.data
+        .iter()
+        .map(|&v| (clean(v) * scale).max(1e-4))
+        .collect()
+}
+
+/// The weight and target of an edge of trust `t` ∈ [0, 1] and measured step `g` once
+/// the prior ε (1 − t) Δz² is added (`prior`: with a weight map): t (Δz − g)² +
+/// ε (1 − t) Δz² = (t + ε(1 − t)) (Δz − t g / (t + ε(1 − t)))² + const.
+#[inline]
+pub(crate) fn with_prior(t: f64, g: f64, prior: bool) -> (f64, f64) {
+    if !prior {
+        return (t, g);
+    }
+    let wt = t + PRIOR * (1.0 - t).max(0.0);
+    (wt, t * g / wt)
 }
 
 /// A weighted least-squares problem on the edges of a masked grid, assembled as the
@@ -193,6 +215,7 @@ pub(crate) fn integrate(
     let (w, h) = (mask.width, mask.height);
     progress.start("lsq: assemble, solve", 2);
     let wt = pixel_weights(weights, mask);
+    let prior = weights.is_some();
     let mut sys = Assembled::new(w, h);
     for r in 0..h {
         for c in 0..w {
@@ -202,11 +225,13 @@ pub(crate) fn integrate(
             }
             if c + 1 < w && mask.data[i + 1] {
                 let g = 0.5 * (p[i] as f64 + p[i + 1] as f64);
-                sys.add_edge(i, true, 0.5 * (wt[i] + wt[i + 1]), g);
+                let (t, g) = with_prior(wt[i].min(wt[i + 1]), g, prior);
+                sys.add_edge(i, true, t, g);
             }
             if r + 1 < h && mask.data[i + w] {
                 let g = -0.5 * (q[i] as f64 + q[i + w] as f64);
-                sys.add_edge(i, false, 0.5 * (wt[i] + wt[i + w]), g);
+                let (t, g) = with_prior(wt[i].min(wt[i + w]), g, prior);
+                sys.add_edge(i, false, t, g);
             }
         }
     }

@@ -60,6 +60,7 @@ mod lsq;
 mod multigrid;
 pub mod path;
 mod support;
+mod trust;
 
 use crate::error::{Error, Result};
 use crate::image::{DepthMap, GrayImage, Mask, NormalMap};
@@ -68,6 +69,7 @@ use crate::progress::{NoProgress, Progress};
 pub use camera::Camera;
 pub use fft2::fft_floor;
 pub use support::{label_components, Components};
+pub use trust::{trust_weights, TrustOptions};
 
 /// How to turn gradients into depth. Each variant states its equation and its
 /// boundary assumption; see the module documentation for the common notation.
@@ -103,8 +105,9 @@ pub enum Method {
     /// mask count as flat, which is wrong for objects on a background: use `Lsq` there.
     Dct,
     /// Masked least squares: E(z) over the edges whose two ends are both inside the
-    /// mask, with optional per-pixel weights (edge weight = mean of its two pixels'
-    /// weights). The normal equations L z = b (a weighted graph Laplacian) are solved by
+    /// mask, with optional per-pixel weights (edge weight = the smaller of its two
+    /// pixels' weights, plus a membrane prior that fills untrusted regions smoothly:
+    /// [`trust_weights`]). The normal equations L z = b (a weighted graph Laplacian) are solved by
     /// conjugate gradients with a multigrid preconditioner (relative residual 1e-7; sparse
     /// Cholesky as a fallback should CG not converge), with one pixel per connected part
     /// pinned to 0 (then each part is shifted to mean 0). **Boundary: the mask's own
@@ -173,9 +176,11 @@ pub struct Options {
     /// The integrator (default [`Method::Lsq`]; [`choose_method`] picks one from the mask).
     pub method: Method,
     /// Per-pixel confidence (≥ 0, same size as the mask) weighting the least-squares
-    /// edges; only [`Method::Lsq`] and [`Method::Bilateral`] use it (an error otherwise). NaN or negative values
-    /// count as 0, and weights are floored at 1e-4 × their maximum so that every part
-    /// stays connected.
+    /// edges; only [`Method::Lsq`] and [`Method::Bilateral`] use it (an error otherwise).
+    /// NaN or negative values count as 0; weights are scaled to a maximum of 1 and
+    /// floored at 1e-4. With weights, an edge of trust t also gets the membrane prior
+    /// 0.1 (1 − t) Δz², so that untrusted pixels are filled smoothly from their
+    /// neighbours instead of integrating noise ([`trust_weights`] makes such a map).
     pub weights: Option<GrayImage>,
     /// Smallest accepted n_z (unitless, default 0.05, i.e. slopes up to 20 pixel/pixel,
     /// 87°); normals below it are clamped and counted.
@@ -316,17 +321,20 @@ pub fn solve_with_progress(
 }
 
 /// BiNI parameters of a method ([`Method::Lsq`]: one solve with all weights 1/2).
-fn bini_params(method: Method) -> bilateral::Params {
-    match method {
+fn bini_params(opts: &Options) -> bilateral::Params {
+    let prior = opts.weights.is_some();
+    match opts.method {
         Method::Bilateral { k, max_iter, tol } => bilateral::Params {
             k: k as f64,
             max_iter: max_iter.max(1) as usize,
             tol: tol as f64,
+            prior,
         },
         _ => bilateral::Params {
             k: 0.0,
             max_iter: 1,
             tol: 0.0,
+            prior,
         },
     }
 }
@@ -351,14 +359,7 @@ fn perspective(
     let comps = label_components(mask);
     let (field, clamped) = bilateral::Field::perspective(normals, mask, cam, opts.min_nz);
     let conf = lsq::pixel_weights(opts.weights.as_ref(), mask);
-    let sol = bilateral::integrate(
-        &field,
-        &conf,
-        mask,
-        &comps,
-        bini_params(opts.method),
-        progress,
-    )?;
+    let sol = bilateral::integrate(&field, &conf, mask, &comps, bini_params(opts), progress)?;
     let z: Vec<f32> = sol.v.iter().map(|&v| v as f32).collect();
     let p: Vec<f32> = field.g_h.iter().map(|&g| g as f32).collect();
     let q: Vec<f32> = field.g_v.iter().map(|&g| -g as f32).collect();
@@ -458,14 +459,8 @@ pub fn integrate_gradients_with_progress(
                 .unwrap_or_else(|| unreachable!("labelled for bini"));
             let field = bilateral::Field::orthographic(&p, &q, mask);
             let conf = lsq::pixel_weights(opts.weights.as_ref(), mask);
-            let sol = bilateral::integrate(
-                &field,
-                &conf,
-                mask,
-                comps,
-                bini_params(opts.method),
-                progress,
-            )?;
+            let sol =
+                bilateral::integrate(&field, &conf, mask, comps, bini_params(opts), progress)?;
             info = bini_info(opts.method, &sol, 0.0);
             let z = sol.v.iter().map(|&v| v as f32).collect();
             disc = discontinuities(opts.method, sol, w, h);

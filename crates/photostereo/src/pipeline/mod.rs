@@ -227,15 +227,27 @@ pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Outpu
         .method
         .unwrap_or_else(|| integrate::choose_method(&job.mask));
     let (est, circle, ir) = stages::normals(&mut st, job, opts, method)?;
-    let depth = match est.depth.clone() {
-        Some(d) => d,
-        None => st.run("integration", |p| {
-            let conf = est.confidence.as_ref();
-            stages::integrate_normals(&est.normals, &job.mask, conf, method, p)
-        })?,
+    let (depth, cuts) = match est.depth.clone() {
+        Some(d) => (d, None),
+        None => {
+            let out = st.run("integration", |p| {
+                stages::integrate_normals(&est, &job.mask, method, p)
+            })?;
+            (out.depth, out.discontinuities)
+        }
     };
     let mesh = st.run("mesh", |_| {
-        mesh::from_depth(&depth, &job.mask, Some(&est.normals), est.albedo.as_ref())
+        let mo = mesh::MeshOptions {
+            cuts: cuts.as_ref(),
+            ..Default::default()
+        };
+        mesh::from_depth_with(
+            &depth,
+            &job.mask,
+            Some(&est.normals),
+            est.albedo.as_ref(),
+            &mo,
+        )
     })?;
     let accuracy = if has_truth {
         st.run("accuracy", |_| stages::accuracy(job, &est.normals, &depth))?

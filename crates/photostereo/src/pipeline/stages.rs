@@ -149,22 +149,33 @@ fn lambertian_normals(
     })
 }
 
-/// Depth from the normals; masked least squares is weighted by the confidence.
+/// Depth from the normals; masked least squares and BiNI weight each pixel by its
+/// trust ([`integrate::trust_weights`]: albedo, lookup confidence, slope).
 pub(super) fn integrate_normals(
-    normals: &NormalMap,
+    est: &Estimate,
     mask: &Mask,
-    confidence: Option<&GrayImage>,
     method: integrate::Method,
     progress: &dyn Progress,
-) -> Result<DepthMap> {
+) -> Result<integrate::Output> {
+    let weighted = matches!(
+        method,
+        integrate::Method::Lsq | integrate::Method::Bilateral { .. }
+    );
+    let weights = weighted.then(|| {
+        integrate::trust_weights(
+            &est.normals,
+            mask,
+            est.albedo.as_ref(),
+            est.confidence.as_ref(),
+            &integrate::TrustOptions::default(),
+        )
+    });
     let opts = integrate::Options {
         method,
-        weights: confidence
-            .filter(|_| method == integrate::Method::Lsq)
-            .cloned(),
+        weights,
         ..Default::default()
     };
-    Ok(integrate::solve_with_progress(normals, mask, &opts, progress)?.depth)
+    integrate::solve_with_progress(&est.normals, mask, &opts, progress)
 }
 
 fn nik(
