@@ -359,24 +359,25 @@ fn mitsuba_textured_plastic_split() {
         radius: 100.0,
     };
     let t = [table(&calib.stack, &circle)];
-    let run = |split: bool| {
+    let run = |stack: &ImageStack, split: bool| {
         let opts = Options {
             normalize: true,
             split_specular: split,
             ..Options::default()
         };
-        score(
-            &lut::solve(&target, &mask, &t, &opts, &NoProgress).unwrap(),
-            &truth,
-            &mask,
-        )
+        let out = lut::solve(stack, &mask, &t, &opts, &NoProgress).unwrap();
+        score(&out, &truth, &mask)
     };
-    let (plain, split) = (run(false), run(true));
+    let (plain, split) = (run(&target, false), run(&target, true));
     print("textured plastic, normalised", &plain);
     print("textured plastic, diffuse/specular split", &split);
-    // measured: normalised 1.761° (bands 1.52 / 2.25 / 2.33 / 2.95°), split 0.562°
-    // (0.27 / 0.79 / 0.92 / 4.58°: no rim model in the mixture); issue 10's target < 0.45°
-    assert!(split.mean < 1.0 && split.bands[0] < 0.5, "{split:?}");
+    print("untextured plastic, split", &run(&plastic.stack, true));
+    // measured: normalised 1.761° (bands 1.52 / 2.25 / 2.33 / 2.95°), split 0.462°
+    // (0.27 / 0.79 / 0.84 / 1.80°; issue 10's target < 0.45°); untextured, split 0.048°
+    // (0.010 / 0.019 / 0.055 / 0.97°): the textured errors come mostly from the
+    // construction (Lambert-shaped texture on a Fresnel-shaped diffuse lobe)
+    assert!(split.mean < 0.7 && split.bands[0] < 0.5, "{split:?}");
+    assert!(split.bands[3] < 3.0, "{split:?}");
     assert!(
         split.mean < 0.5 * plain.mean,
         "{:.3}° vs {:.3}°",

@@ -192,8 +192,9 @@ fn spatial_stage_halves_the_noise_of_plastic_and_keeps_clean_renders() {
 fn spatial_stage_fills_the_dark_pixels_of_rough_metal() {
     let case = render(ShapeKind::Blob, Material::metal(), 0.01, 0.01);
     let (e0, e1, out, sp) = lookup_and_spatial(&case);
-    // measured: 11.5° → 7.0°
-    assert!(e1 < 0.7 * e0, "{e0} → {e1}");
+    println!("rough metal, 1% noise: lookup {e0:.2}°, spatial stage {e1:.2}°");
+    // measured: 9.23° → 1.98° (4 re-linearisation passes); the target is < 4°
+    assert!(e1 < 0.4 * e0 && e1 < 4.0, "{e0} → {e1}");
     // the pixels decided by their neighbours are the ones the lookup got wrong, and the
     // confidence afterwards says so
     let err = eval::angular_error_map(&out.normals, &case.truth, &case.mask).unwrap();
@@ -282,6 +283,7 @@ fn bad_options_are_refused() {
         height: 4,
         u: vec![[0.0; 2]; 16],
         a: vec![[1.0, 0.0, 1.0]; 16],
+        g: Vec::new(),
     };
     let mask = Mask::full(4, 4);
     let bad = spatial::Options {

@@ -18,7 +18,15 @@
 //! outlier and drops out. Where the diffuse reflectance is not Lambertian (rough
 //! plastics, Fresnel-weighted diffuse) the difference lands in S, which then does not
 //! scale with the albedo: an approximation, small next to the highlight.
+//!
+//! **Up to 90°.** The mixture has no rim refit of its own, so the two tables are
+//! extended instead: past the table's last clean ring (θ_c, see `rim.rs`) every window
+//! pixel takes D from the fitted g_k at its normal (clamped to the circle) and S = the
+//! rim model of the whole reflectance there minus D, and the split tables' search
+//! radius reaches [`REACH`] px short of the circle (about 89° on R = 100): a target
+//! normal between θ_c and 90° is fitted on the model, not clamped to the table's edge.
 
+use super::rim::{Rim, RimBuf};
 use super::table::Table;
 
 /// Rounds of the robust refit.
@@ -30,30 +38,55 @@ const INLIER_FLOOR: f32 = 0.005;
 /// Entries with n·g below this fraction of |g| (near the terminator) are left out.
 const TERMINATOR: f64 = 0.05;
 
+/// Distance (px) short of the circle that the split tables' search reaches, when the
+/// rim model extends them.
+const REACH: f64 = 0.02;
+
 /// The diffuse and specular tables of `table` (same window, circle and entries).
 pub(crate) fn split(table: &Table) -> [Table; 2] {
     let k = table.k;
     let g: Vec<[f64; 3]> = (0..k).map(|i| fit_light(table, i)).collect();
+    let rim = Rim::fit(table);
     let mut diffuse = table.clone();
     let mut specular = table.clone();
     diffuse.material = format!("{} (diffuse part)", table.material);
     specular.material = format!("{} (specular part)", table.material);
     let ws = &table.window.stack;
+    let (cgx, cgy) = table.to_grid(table.circle.cx, table.circle.cy);
+    let clean = table.search_radius() + 1.0;
+    let mut buf = RimBuf::new(k);
     for r in 0..ws.height {
         for c in 0..ws.width {
-            // padded pixels take the normal of the nearest point of the search disc
-            let (gx, gy) = table.clamp_grid(c as f64, r as f64);
-            let n = table.grid_normal(gx, gy);
             let at = (r * ws.width + c) * k;
-            split_tuple(
-                &n,
-                &g,
-                &ws.data[at..at + k],
-                at,
-                &mut diffuse,
-                &mut specular,
+            let (x, y) = (c as f64, r as f64);
+            let d = ((x - cgx).powi(2) + (y - cgy).powi(2)).sqrt();
+            let (n, tuple) = match &rim {
+                // past the clean ring: the rim model at the pixel's own normal
+                Some(rim) if d >= clean => {
+                    let n = unit(table.grid_normal(x, y));
+                    (n, rim.tuple(n, &mut buf))
+                }
+                Some(_) => (unit(table.grid_normal(x, y)), &ws.data[at..at + k]),
+                // padded pixels take the normal of the nearest point of the search disc
+                None => {
+                    let (gx, gy) = table.clamp_grid(x, y);
+                    (table.grid_normal(gx, gy), &ws.data[at..at + k])
+                }
+            };
+            let (dst_d, dst_s) = (
+                &mut diffuse.window.stack.data,
+                &mut specular.window.stack.data,
             );
+            for (i, gi) in g.iter().enumerate() {
+                let v = lambert(&n, gi);
+                dst_d[at + i] = v;
+                dst_s[at + i] = tuple[i] - v;
+            }
         }
+    }
+    if rim.is_some() {
+        let reach = REACH.min(table.rim);
+        (diffuse.rim, specular.rim) = (reach, reach);
     }
     for (e, n) in table.entries.normals.iter().enumerate() {
         let at = e * k;
@@ -67,20 +100,13 @@ pub(crate) fn split(table: &Table) -> [Table; 2] {
     [diffuse, specular]
 }
 
-/// Write the diffuse and specular parts of the window tuple `tuple` (normal `n`) at
-/// offset `at` of the two tables' windows.
-fn split_tuple(
-    n: &[f32; 3],
-    g: &[[f64; 3]],
-    tuple: &[f32],
-    at: usize,
-    d: &mut Table,
-    s: &mut Table,
-) {
-    for (i, gi) in g.iter().enumerate() {
-        let v = lambert(n, gi);
-        d.window.stack.data[at + i] = v;
-        s.window.stack.data[at + i] = tuple[i] - v;
+/// `n` scaled to unit length (the sphere's normal clamped to the circle outside it).
+fn unit(n: [f32; 3]) -> [f32; 3] {
+    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    if l > 0.0 {
+        n.map(|v| v / l)
+    } else {
+        n
     }
 }
 

@@ -66,7 +66,8 @@
 //! the whole tuple, but only the diffuse part of a plastic scales with its albedo. The
 //! table is split into its Lambertian part D (a robust fit of max(0, n·g_k) per light)
 //! and the remainder S (highlight), and each pixel is fitted as t ≈ a·D(n) + b·S(n), the
-//! two-material mixture below with one sphere (`diffuse.rs`).
+//! two-material mixture below with one sphere (`diffuse.rs`; both parts are extended
+//! past the table's edge to 90° with the rim model, so grazing normals are fitted).
 //!
 //! **Several materials** (Hertzmann & Seitz): with two tables the model is
 //! t ≈ a·I_A(n) + b·I_B(n), a, b ≥ 0, found by a 2-variable non-negative least-squares

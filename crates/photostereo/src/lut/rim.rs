@@ -140,6 +140,14 @@ impl Rim {
         })
     }
 
+    /// The model's tuple at unit normal `n` (θ = acos n_z, φ = atan2(n_y, n_x)).
+    pub fn tuple<'b>(&self, n: [f32; 3], b: &'b mut RimBuf) -> &'b [f32] {
+        let theta = (n[2] as f64).clamp(-1.0, 1.0).acos();
+        let phi = (n[1] as f64).atan2(n[0] as f64);
+        self.eval(theta, phi, b, false);
+        &b.p
+    }
+
     /// The model's tuple at (θ, φ) into `b.p`, and when `grad`, its derivatives with
     /// respect to θ and φ into `b.px`, `b.py` (0 where the model is clamped at 0).
     fn eval(&self, theta: f64, phi: f64, b: &mut RimBuf, grad: bool) {

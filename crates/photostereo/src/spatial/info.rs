@@ -26,6 +26,10 @@ pub struct Evidence {
     pub u: Vec<[f32; 2]>,
     /// Information matrix (A₁₁, A₁₂, A₂₂) in (n_x, n_y), 1/(unit normal component)².
     pub a: Vec<[f32; 3]>,
+    /// Gradient g = JᵀW r of the cost's linearisation at `u` (r = t − c·I(u)): the
+    /// pixel's cost is (u' − u)ᵀ A (u' − u) − 2 gᵀ(u' − u) + const near `u`; empty when
+    /// `u` is the pixel's own best match (g = 0 there).
+    pub g: Vec<[f32; 2]>,
 }
 
 impl Evidence {
@@ -77,23 +81,58 @@ pub fn from_table(
     noise: &NoiseModel,
     shadow_level: f32,
 ) -> Evidence {
+    let sel = |r: usize, c: usize| *mask.get(r, c);
+    let mut ev = linearise_where(stack, table, normals, albedo, (noise, shadow_level), sel);
+    ev.g = Vec::new();
+    ev
+}
+
+/// The cost of each pixel with `only[i]` linearised at `normals` (any field, e.g. a
+/// spatial solution): A and the gradient g at that normal ([`Evidence::g`]); zeros at
+/// the other pixels.
+#[allow(clippy::too_many_arguments)]
+pub fn linearise(
+    stack: &ImageStack,
+    mask: &Mask,
+    table: &Table,
+    normals: &NormalMap,
+    albedo: Option<&GrayImage>,
+    noise: &NoiseModel,
+    shadow_level: f32,
+    only: &[bool],
+) -> Evidence {
+    let w = mask.width;
+    let sel = |r: usize, c: usize| *mask.get(r, c) && only[r * w + c];
+    linearise_where(stack, table, normals, albedo, (noise, shadow_level), sel)
+}
+
+fn linearise_where(
+    stack: &ImageStack,
+    table: &Table,
+    normals: &NormalMap,
+    albedo: Option<&GrayImage>,
+    (noise, shadow_level): (&NoiseModel, f32),
+    select: impl Fn(usize, usize) -> bool + Sync,
+) -> Evidence {
     let (w, h, k) = (stack.width, stack.height, stack.k);
     let px = TablePixel::new(table, noise, shadow_level, albedo.is_some());
     let mut u = vec![[0.0f32; 2]; w * h];
     let mut a = vec![[0.0f32; 3]; w * h];
+    let mut g = vec![[0.0f32; 2]; w * h];
     u.par_chunks_mut(w)
         .zip(a.par_chunks_mut(w))
+        .zip(g.par_chunks_mut(w))
         .enumerate()
-        .for_each(|(r, (urow, arow))| {
+        .for_each(|(r, ((urow, arow), grow))| {
             let mut buf = vec![0.0f32; 5 * k];
             for c in 0..w {
-                if !*mask.get(r, c) {
+                if !select(r, c) {
                     continue;
                 }
                 let n = *normals.get(r, c);
                 let scale = albedo.map_or(1.0, |img| *img.get(r, c));
                 urow[c] = [n[0], n[1]];
-                arow[c] = px.information(stack.pixel(r, c), n, scale, &mut buf);
+                (arow[c], grow[c]) = px.information(stack.pixel(r, c), n, scale, &mut buf);
             }
         });
     Evidence {
@@ -101,6 +140,7 @@ pub fn from_table(
         height: h,
         u,
         a,
+        g,
     }
 }
 
@@ -130,8 +170,14 @@ impl<'a> TablePixel<'a> {
     }
 
     /// Information JᵀWJ (A₁₁, A₁₂, A₂₂) of the pixel's cost at normal `n` with
-    /// brightness `scale`.
-    fn information(&self, t: &[f32], n: [f32; 3], scale: f32, buf: &mut [f32]) -> [f32; 3] {
+    /// brightness `scale`, and the gradient JᵀW r.
+    fn information(
+        &self,
+        t: &[f32],
+        n: [f32; 3],
+        scale: f32,
+        buf: &mut [f32],
+    ) -> ([f32; 3], [f32; 2]) {
         let k = t.len();
         let (gx, gy) = self.table.normal_to_grid(n);
         let (gx, gy) = self.table.clamp_grid(gx, gy);
@@ -150,6 +196,7 @@ impl<'a> TablePixel<'a> {
         let d = self.radius / (2.0 * hstep as f32);
         let level = self.shadow_level * scale * self.peak;
         let mut acc = [0.0f64; 3];
+        let mut grad = [0.0f64; 2];
         let (mut iwi, mut iwj) = (0.0f64, [0.0f64; 2]);
         for i in 0..k {
             let pred = scale * v[i];
@@ -163,6 +210,9 @@ impl<'a> TablePixel<'a> {
                 (-scale * d * (yp[i] - ym[i])) as f64,
             ];
             add(&mut acc, j, wgt);
+            let res = wgt * (ti - pred) as f64;
+            grad[0] += res * j[0];
+            grad[1] += res * j[1];
             if self.normalized {
                 let vi = v[i] as f64;
                 iwi += wgt * vi * vi;
@@ -176,7 +226,10 @@ impl<'a> TablePixel<'a> {
             acc[1] -= iwj[0] * iwj[1] / iwi;
             acc[2] -= iwj[1] * iwj[1] / iwi;
         }
-        [acc[0] as f32, acc[1] as f32, acc[2] as f32]
+        (
+            [acc[0] as f32, acc[1] as f32, acc[2] as f32],
+            [grad[0] as f32, grad[1] as f32],
+        )
     }
 }
 
@@ -229,5 +282,6 @@ pub fn from_lambertian(
         height: h,
         u,
         a,
+        g: Vec::new(),
     }
 }

@@ -34,6 +34,21 @@
 //! evidence a weak pixel is continued from its neighbours. Solved by preconditioned
 //! conjugate gradients, coarse to fine ([`solve`] module docs).
 //!
+//! # Re-linearisation ([`solve_table`])
+//!
+//! The quadratic at the match is only valid near the match. A dark pixel (signal-to-noise
+//! 1–3 in every image) is often matched by chance where the table has structure, and
+//! reports there an information A it does not have. After the first solve, every pixel
+//! the solution moved outside its match's trust region ((u − û)ᵀ A (u − û) >
+//! [`Options::trust`]) has its cost re-linearised at its current normal u₀ (Gauss–Newton:
+//! A = JᵀWJ and g = JᵀW (t − c·I(u₀)) at u₀, right-hand side A u₀ + g), and the problem is
+//! solved again from the current field on the finest level; up to [`Options::passes`]
+//! times, stopping when no pixel is outside its trust region. Pixels near their match
+//! keep its quadratic, so clean, well-lit pixels are not moved by the linearisation's
+//! error (the table is sampled bilinearly; its slope by central differences). Measured
+//! on the project's rough-metal blob with 1% noise: 5.06° after the first solve, 3.8°,
+//! 2.9° and 1.97° after 1, 2 and 4 passes.
+//!
 //! **Confidence afterwards**: the share of the pixel's posterior information that is its
 //! own, s = tr A / tr(A + P) with P the prior's diagonal, is returned in
 //! [`Output::own_share`]; the confidence is multiplied by s, so pixels decided by their
@@ -54,6 +69,7 @@ pub use noise::NoiseModel;
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, ImageStack, Mask, NormalMap};
 use crate::lut::{self, Table};
+use rayon::prelude::*;
 use solve::Level;
 
 /// Options of [`solve`] and [`solve_table`].
@@ -76,6 +92,13 @@ pub struct Options {
     /// [`solve_table`]: dark level of the cast-shadow rule, as in [`lut::Options::shadow_level`].
     /// Default 0.03.
     pub shadow_level: f32,
+    /// [`solve_table`]: at most this many re-linearisation (Gauss–Newton) passes after the
+    /// first solve; 0 = the quadratics at the matches only. Default 4.
+    pub passes: usize,
+    /// [`solve_table`]: trust region of a match, as a squared Mahalanobis distance
+    /// (u − û)ᵀ A (u − û) (dimensionless; 25 = 5 standard errors): a pixel the solution
+    /// moved further is re-linearised at its current normal. Default 25.
+    pub trust: f32,
 }
 
 impl Default for Options {
@@ -86,6 +109,8 @@ impl Default for Options {
             iterations: 40,
             contour_sigma: Some(0.01),
             shadow_level: lut::Options::default().shadow_level,
+            passes: 4,
+            trust: 25.0,
         }
     }
 }
@@ -128,17 +153,31 @@ pub struct Stats {
 /// Errors: evidence of another size than the mask; a smoothness or jump that is not
 /// positive and finite.
 pub fn solve(ev: &Evidence, mask: &Mask, opts: &Options) -> Result<Output> {
+    solve_from(ev, mask, opts, None)
+}
+
+fn solve_from(
+    ev: &Evidence,
+    mask: &Mask,
+    opts: &Options,
+    start: Option<&[[f32; 2]]>,
+) -> Result<Output> {
     check(ev, mask, opts)?;
-    let b = rhs(&ev.a, &ev.u);
-    let (x, levels, its) = quadratic(ev, mask, (&ev.a, &b), opts);
+    let mut b = rhs(&ev.a, &ev.u);
+    for (b, g) in b.iter_mut().zip(&ev.g) {
+        b[0] += g[0];
+        b[1] += g[1];
+    }
+    let (x, levels, its) = quadratic(ev, mask, (&ev.a, &b), opts, start);
     Ok(finish(ev, mask, &x, &levels, its))
 }
 
 /// The spatial stage after a lookup with one `table` (the lookup's `normals` and, with
 /// normalised matching, its `albedo`): the evidence ([`info::from_table`]), [`solve`],
-/// and the angular standard error of each pixel's own data at the returned normal (so a
-/// dark pixel matched by chance where the table has structure, and moved by its
-/// neighbours, reports how little its data say there).
+/// then up to [`Options::passes`] Gauss–Newton passes that re-linearise the cost of every
+/// pixel the solution moved outside its match's trust region ([`Options::trust`]) at
+/// its current normal (module docs, "Re-linearisation"). The angular standard error is
+/// that of the last linearisation of each pixel's own data, at the returned normal.
 pub fn solve_table(
     stack: &ImageStack,
     mask: &Mask,
@@ -164,10 +203,37 @@ pub fn solve_lookup(
     let level = opts.shadow_level;
     let ev = info::from_table(stack, mask, table, normals, albedo, noise, level);
     let mut out = solve(&ev, mask, opts)?;
-    let at = info::from_table(stack, mask, table, &out.normals, albedo, noise, level);
-    out.sigma_deg = at.sigma_deg(mask);
-    out.stats.mean_sigma_deg = mean_in(&out.sigma_deg, mask);
+    let mut iterations = out.stats.iterations;
+    for _ in 0..opts.passes {
+        let far = outside_trust(&ev, mask, &out.normals, opts.trust);
+        if !far.iter().any(|&f| f) {
+            break;
+        }
+        let lin = info::linearise(stack, mask, table, &out.normals, albedo, noise, level, &far);
+        let mut mixed = ev.clone();
+        mixed.g = vec![[0.0; 2]; ev.u.len()];
+        for (i, _) in far.iter().enumerate().filter(|(_, &f)| f) {
+            (mixed.u[i], mixed.a[i], mixed.g[i]) = (lin.u[i], lin.a[i], lin.g[i]);
+        }
+        let x0: Vec<[f32; 2]> = out.normals.data.iter().map(|n| [n[0], n[1]]).collect();
+        out = solve_from(&mixed, mask, opts, Some(&x0))?;
+        iterations += out.stats.iterations;
+    }
+    out.stats.iterations = iterations;
     Ok(out)
+}
+
+/// Mask pixels whose normal in `normals` lies outside the trust region of their match:
+/// (u − û)ᵀ A (u − û) > `trust`.
+fn outside_trust(ev: &Evidence, mask: &Mask, normals: &NormalMap, trust: f32) -> Vec<bool> {
+    ev.u.par_iter()
+        .zip(&ev.a)
+        .zip(normals.data.par_iter().zip(&mask.data))
+        .map(|((u0, a), (n, &m))| {
+            let d = [n[0] - u0[0], n[1] - u0[1]];
+            m && a[0] * d[0] * d[0] + 2.0 * a[1] * d[0] * d[1] + a[2] * d[1] * d[1] > trust
+        })
+        .collect()
 }
 
 /// Mean of `img` over the `mask` pixels.
@@ -196,6 +262,7 @@ fn quadratic(
     mask: &Mask,
     (a, b): (&[[f32; 3]], &[[f32; 2]]),
     opts: &Options,
+    start: Option<&[[f32; 2]]>,
 ) -> (Vec<[f32; 2]>, Vec<Level>, usize) {
     let (w, h) = (ev.width, ev.height);
     let lambda = 1.0 / (opts.smoothness * opts.smoothness);
@@ -228,6 +295,11 @@ fn quadratic(
         }
     }
     let mut levels = vec![Level::finest((w, h), m, (&a, &b), lambda, pair_ok)];
+    if let Some(x0) = start {
+        let mut x = x0.to_vec();
+        let its = levels[0].solve(&mut x, opts.iterations);
+        return (x, levels, its);
+    }
     while let Some(next) = levels
         .last()
         .filter(|l| solve::has_coarser(l.w, l.h))
@@ -318,13 +390,13 @@ fn check(ev: &Evidence, mask: &Mask, opts: &Options) -> Result<()> {
     mask.check_size(ev.width, ev.height, "spatial stage mask")?;
     let ok = |v: f32| v.is_finite() && v > 0.0;
     let contour_ok = opts.contour_sigma.is_none_or(ok);
-    if !ok(opts.smoothness) || !ok(opts.jump) || !contour_ok {
+    if !ok(opts.smoothness) || !ok(opts.jump) || !contour_ok || !ok(opts.trust) {
         return Err(Error::invalid(
             format!(
-                "spatial smoothness {} / jump {} / contour sigma {:?}",
-                opts.smoothness, opts.jump, opts.contour_sigma
+                "spatial smoothness {} / jump {} / contour sigma {:?} / trust {}",
+                opts.smoothness, opts.jump, opts.contour_sigma, opts.trust
             ),
-            "use positive finite values (defaults 0.01, 0.15 and 0.01)",
+            "use positive finite values (defaults 0.01, 0.15, 0.01 and 25)",
         ));
     }
     Ok(())

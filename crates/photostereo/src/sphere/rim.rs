@@ -136,6 +136,18 @@ pub(crate) fn distance(a: &Circle, b: &Circle) -> f64 {
         .max((a.radius - b.radius).abs())
 }
 
+/// RMS residual (image units) of the full rim model with the rim on `circle` (every
+/// sector's offset 0), and with each sector's offset fitted; each at its own best blur
+/// (area footprint). `None` when too few sectors lie in the image.
+pub(crate) fn check(img: &View, circle: &Circle) -> Option<(f64, f64)> {
+    let band = Band::new(img, circle, false)?;
+    let rms = |free: bool| {
+        let sigma = golden(|s| band.mean_square(s, free), 0.0, 2.5, 10);
+        band.mean_square(sigma, free).sqrt()
+    };
+    Some((rms(false), rms(true)))
+}
+
 /// Pixels near the rim, grouped by angular sector.
 struct Band {
     circle: Circle,
@@ -223,6 +235,33 @@ impl Band {
         };
         let sigma = golden(total, 0.0, 2.5, 10);
         (sigma, total(sigma))
+    }
+
+    /// Mean squared residual per pixel over all sectors at blur `sigma` (full model),
+    /// with the rim on the band's circle or (`free`) each sector's offset fitted.
+    fn mean_square(&self, sigma: f64, free: bool) -> f64 {
+        let basis = Basis::new(sigma, true);
+        let (mut sum, mut n) = (0.0, 0usize);
+        for s in &self.sectors {
+            let fixed = || {
+                let foot = Footprint::new(&basis, &s.offsets);
+                residual(&foot, &s.pixels, self.circle.radius)
+            };
+            let c = if free {
+                self.sector_fit(&basis, s).map_or_else(fixed, |f| f.1)
+            } else {
+                fixed()
+            };
+            if c.is_finite() {
+                sum += c * s.pixels.len() as f64;
+                n += s.pixels.len();
+            }
+        }
+        if n == 0 {
+            f64::INFINITY
+        } else {
+            sum / n as f64
+        }
     }
 
     /// The sector points at blur `sigma`, fitted by the robust circle fit.
