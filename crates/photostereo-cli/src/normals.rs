@@ -66,6 +66,13 @@ pub struct Args {
     /// little about their normal take it from their neighbours; see `photostereo::spatial`).
     #[arg(long)]
     no_spatial: bool,
+    /// No occluding-contour prior in the spatial stage: by default the mask's edge is taken
+    /// as the object's silhouette, where the normal is perpendicular to the view and to the
+    /// edge (Ikeuchi & Horn 1981). Turn it off where the mask's edge is not a silhouette:
+    /// the object rests on a support, the mask cuts through a surface, or a concave fold.
+    /// (Edge pixels on the image border never count as contour.)
+    #[arg(long)]
+    no_contour: bool,
     /// Object mask (PNG/TIFF/.npy, non-zero = object); default TARGET_DIR/mask.png,
     /// else the whole image.
     #[arg(long, value_name = "MASK")]
@@ -189,7 +196,7 @@ fn spatial_stage(
         return Ok((out.normals.clone(), out.confidence.clone(), Vec::new()));
     }
     let noise = spatial::NoiseModel::estimate(stack, mask);
-    let opts = spatial::Options::default();
+    let opts = spatial_options(args);
     let say = |s: String| {
         if !global.quiet {
             println!("{s}");
@@ -271,7 +278,7 @@ fn lambertian_normals(
         &noise,
     );
     let (normals, sigma, extra) = if !args.no_spatial {
-        let sp = spatial::solve(&ev, mask, &spatial::Options::default())
+        let sp = spatial::solve(&ev, mask, &spatial_options(args))
             .context("spatial stage after the Lambertian solve")?;
         if !global.quiet {
             println!(
@@ -309,4 +316,14 @@ fn write_results(dir: &Path, r: &Results, mask: &Mask) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The spatial stage's settings: the defaults, without the contour prior under
+/// `--no-contour`.
+fn spatial_options(args: &Args) -> spatial::Options {
+    let mut opts = spatial::Options::default();
+    if args.no_contour {
+        opts.contour_sigma = None;
+    }
+    opts
 }

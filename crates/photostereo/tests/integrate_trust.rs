@@ -7,7 +7,9 @@
 mod integrate_support;
 
 use integrate_support::{disk, sphere_cap, Gauss, Surface};
-use photostereo::integrate::{solve, trust_weights, Method, Options, TrustOptions};
+use photostereo::integrate::{
+    choose_method_for, solve, trust_weights, Method, Options, TrustOptions,
+};
 use photostereo::{GrayImage, NormalMap};
 
 const W: usize = 96;
@@ -112,4 +114,49 @@ fn trust_weights_lower_the_depth_error_at_the_outline_and_on_dark_pixels() {
             method.name()
         );
     }
+}
+
+/// `choose_method_for` picks BiNI for a sphere floating 20 px in front of a tilted plane
+/// (an interior depth jump along its outline) and keeps least squares on the noisy
+/// hemisphere alone.
+#[test]
+fn bini_is_chosen_where_least_squares_jumps() {
+    let c = case();
+    let trust = trust_weights(
+        &c.normals,
+        &c.s.mask,
+        Some(&c.albedo),
+        None,
+        &TrustOptions::default(),
+    );
+    let lsq = |n: &NormalMap, m: &photostereo::Mask, t: &GrayImage| {
+        let opts = Options {
+            weights: Some(t.clone()),
+            ..Options::default()
+        };
+        solve(n, m, &opts).expect("lsq").depth
+    };
+    let (m, jumps) = choose_method_for(
+        &lsq(&c.normals, &c.s.mask, &trust),
+        &c.normals,
+        &c.s.mask,
+        Some(&trust),
+    );
+    eprintln!("hemisphere: {jumps} jump edges → {}", m.name());
+    assert_eq!(m, Method::Lsq, "{jumps} jump edges on a smooth hemisphere");
+    let mask = disk(W, W, (0.0, 0.0), 46.0);
+    let s = Surface::sample(W, W, mask, |x, y| {
+        let r2 = x * x + y * y;
+        if r2 < R * R {
+            let z = (R * R - r2).sqrt();
+            (20.0 + z, -x / z, -y / z)
+        } else {
+            (0.3 * x, 0.3, 0.0)
+        }
+    });
+    let n = s.normals();
+    let trust = trust_weights(&n, &s.mask, None, None, &TrustOptions::default());
+    let (m, jumps) = choose_method_for(&lsq(&n, &s.mask, &trust), &n, &s.mask, Some(&trust));
+    eprintln!("floating sphere: {jumps} jump edges → {}", m.name());
+    assert_eq!(m, Method::bini(), "only {jumps} jump edges at a 20 px jump");
 }

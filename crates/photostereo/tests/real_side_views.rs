@@ -155,6 +155,17 @@ fn raster(img: &mut image::RgbImage, zbuf: &mut [f64], t: [[f64; 3]; 3], grey: u
     }
 }
 
+/// The integrator row of the figures, with the seconds of the integration stage.
+fn integrator(out: &pipeline::Output) -> String {
+    let row = out.figures.iter().find(|r| r.0 == "integrator");
+    let secs = out
+        .stages
+        .iter()
+        .find(|s| s.0 == "integration")
+        .map_or(0.0, |s| s.1);
+    format!("{} [{secs:.2} s]", row.map_or("?", |r| r.1.as_str()))
+}
+
 #[test]
 fn real_objects_side_views_and_outline_steps() {
     let test = "real_objects_side_views_and_outline_steps";
@@ -185,7 +196,7 @@ fn real_objects_side_views_and_outline_steps() {
         eprintln!(
             "{name}: {}, outline step 95th percentile {p95:.2} px (unweighted lsq {p95_plain:.2}), \
              max {max:.2} px ({max_plain:.2}), depth range {:.1} px ({:.1}), {} triangles",
-            out.method.name(),
+            integrator(&out),
             pipeline::depth_range(&out.depth, mask),
             pipeline::depth_range(&plain.depth, mask),
             out.mesh.faces.len()

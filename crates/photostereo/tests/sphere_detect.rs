@@ -418,3 +418,36 @@ fn synth_spheres_within_0_3_px() {
         check(name, &scene.stack, &truth, 0.3);
     }
 }
+
+/// A mask that is the sphere's own silhouette (pixels whose centre lies inside the
+/// circle, as `synth` writes it) restricts the search without moving the circle: on a
+/// point-sampled render (edge-point circle) and on an area-sampled one (rim model).
+/// Before the search mask was widened by 3 px, the silhouette mask hid the background
+/// from the threshold and moved the edge-point circle by 0.05 px (synth r 40).
+#[test]
+fn silhouette_mask_gives_the_same_circle_as_none() {
+    for supersample in [1, 4] {
+        let scene = Scene {
+            supersample,
+            ..Scene::default()
+        };
+        let stack = render(&scene);
+        let c = scene.circle;
+        let mask = Image::from_fn(stack.width, stack.height, |r, col| {
+            (col as f64 + 0.5 - c.cx).hypot(r as f64 + 0.5 - c.cy) < c.radius
+        });
+        let plain = detect(&stack, &DetectOptions::default()).unwrap().circle;
+        let masked = detect(
+            &stack,
+            &DetectOptions {
+                mask: Some(mask),
+                ..DetectOptions::default()
+            },
+        )
+        .unwrap()
+        .circle;
+        let (ec, er) = errors(&masked, &plain);
+        println!("supersample {supersample}: plain {plain:?}, with the silhouette mask {masked:?}");
+        assert!(ec < 0.005 && er < 0.005, "moved by {ec:.4} / {er:.4} px");
+    }
+}

@@ -63,6 +63,13 @@ pub struct Args {
     /// normals_sigma.npy is written either way; own_share.npy only with the stage.
     #[arg(long)]
     pub no_spatial: bool,
+    /// No occluding-contour prior in the spatial stage: by default the mask's edge is taken
+    /// as the object's silhouette, where the normal is perpendicular to the view and to the
+    /// edge (Ikeuchi & Horn 1981). Turn it off where the mask's edge is not a silhouette:
+    /// the object rests on a support, the mask cuts through a surface, or a concave fold.
+    /// (Edge pixels on the image border never count as contour.)
+    #[arg(long)]
+    pub no_contour: bool,
 }
 
 /// Run the subcommand.
@@ -93,6 +100,9 @@ pub fn run(mut args: Args, global: Global) -> Result<()> {
         ..opts
     };
     let mut opts = opts;
+    if let Some(sp) = opts.spatial.as_mut().filter(|_| args.no_contour) {
+        sp.contour_sigma = None;
+    }
     opts.nik.radiosity.block = args.block.unwrap_or(0);
     let done = pipeline::run(&inputs, &args.out, &opts, &Bar::new(global.quiet))?;
     if !global.quiet {

@@ -26,7 +26,8 @@
 //!
 //! with c_i the optional per-pixel confidence (with a confidence map, plus the membrane
 //! prior ε (1 − max(c_i, c_j)) (v_j − v_i)² of module `trust` on every edge, so that a
-//! region of untrusted pixels is filled smoothly from its trusted surroundings). The bilateral weights come from the
+//! region of untrusted pixels is filled smoothly; with min instead of max the rim of the
+//! hemisphere of `tests/integrate_trust.rs` flattens, error 0.641 px instead of 0.284). The bilateral weights come from the
 //! sigmoid σ_k(x) = 1/(1 + e^(−kx)) of the squared one-sided differences,
 //! w_i = σ_k((a_h(v_i − v_left))² − (a_h(v_right − v_i))²) and likewise u_i: where the
 //! depth jumps on one side, that side's equation is switched off and the surface is
@@ -41,7 +42,8 @@
 //! An edge (i, j) is reported as a discontinuity (and the mesh leaves it out) when the
 //! solved step disagrees with the gradients of both ends by more than [`CUT`] (in the
 //! scaled units of the equations, about pixels): |a_i (v_j − v_i − g_i)| > CUT and
-//! |a_j (v_j − v_i − g_j)| > CUT.
+//! |a_j (v_j − v_i − g_j)| > CUT, both ends with a confidence of at least [`TRUSTED`]
+//! (when there is a confidence map).
 
 use super::camera::Camera;
 use super::lsq::{Assembled, PRIOR};
@@ -56,6 +58,8 @@ pub const CUT: f64 = 1.0;
 /// single solve (perspective [`super::Method::Lsq`], where a loose solve would leave
 /// smooth errors).
 const INNER_TOL: (f64, f64) = (1e-4, super::lsq::TOL);
+/// Confidence from which a pixel's gradient can mark a discontinuity (with a map).
+pub(crate) const TRUSTED: f64 = 0.5;
 /// Smallest bilateral weight.
 const WEIGHT_FLOOR: f64 = 1e-6;
 
@@ -290,7 +294,13 @@ pub(crate) fn integrate(
     progress.finish();
     let w = mask.width;
     // A discontinuity: the solved step disagrees with both ends' own gradients.
+    // Only between trusted pixels (with a confidence map): an untrusted pixel's own
+    // gradient says nothing about a jump.
+    let trusted = |i: usize| !params.prior || conf[i] >= TRUSTED;
     let off = |i: usize, j: usize, g: &[f64], a: &[f64]| {
+        if !(trusted(i) && trusted(j)) {
+            return false;
+        }
         let dv = v[j] - v[i];
         (a[i] * (dv - g[i])).abs() > CUT && (a[j] * (dv - g[j])).abs() > CUT
     };

@@ -271,6 +271,66 @@ pub fn choose_method(mask: &Mask) -> Method {
     }
 }
 
+/// Edges inside the mask across which an orthographic depth map jumps: the step
+/// z_j − z_i disagrees with the gradients of both ends by more than
+/// [`bilateral::CUT`] once scaled by their n_z (BiNI's own test for a discontinuity,
+/// |n_z (Δz − g)| > 1 px at both ends). Least squares smears a depth jump over a few
+/// pixels but leaves such edges along it; on a smooth surface with noisy normals there
+/// are almost none. With a `trust` map ([`trust_weights`]) only edges between pixels
+/// of trust ≥ 0.5 count. Used to choose [`Method::Bilateral`] ([`choose_method_for`]).
+pub fn jump_edges(
+    depth: &DepthMap,
+    normals: &NormalMap,
+    mask: &Mask,
+    trust: Option<&GrayImage>,
+    min_nz: f32,
+) -> usize {
+    let (w, h) = (mask.width, mask.height);
+    let (p, q, _) = gradients(normals, mask, min_nz);
+    let nz = |i: usize| normals.data[i][2].max(min_nz) as f64;
+    let trusted = |i: usize| trust.is_none_or(|t| t.data[i] as f64 >= bilateral::TRUSTED);
+    let off = |i: usize, j: usize, gi: f64, gj: f64| {
+        if !(trusted(i) && trusted(j)) {
+            return false;
+        }
+        let dz = (depth.data[j] - depth.data[i]) as f64;
+        (nz(i) * (dz - gi)).abs() > bilateral::CUT && (nz(j) * (dz - gj)).abs() > bilateral::CUT
+    };
+    let mut count = 0;
+    for i in (0..w * h).filter(|&i| mask.data[i]) {
+        let (r, c) = (i / w, i % w);
+        if c + 1 < w && mask.data[i + 1] && off(i, i + 1, p.data[i] as f64, p.data[i + 1] as f64) {
+            count += 1;
+        }
+        let j = i + w;
+        if r + 1 < h && mask.data[j] && off(i, j, -q.data[i] as f64, -q.data[j] as f64) {
+            count += 1;
+        }
+    }
+    count
+}
+
+/// The integrator for normals on a mask when the user names none, given a first
+/// least-squares depth: [`Method::Bilateral`] when that depth has at least
+/// [`JUMP_EDGES`] jump edges ([`jump_edges`]), else [`choose_method`]'s choice.
+/// Returns the method and the number of jump edges.
+pub fn choose_method_for(
+    depth: &DepthMap,
+    normals: &NormalMap,
+    mask: &Mask,
+    trust: Option<&GrayImage>,
+) -> (Method, usize) {
+    let jumps = jump_edges(depth, normals, mask, trust, Options::default().min_nz);
+    if jumps >= JUMP_EDGES {
+        (Method::bini(), jumps)
+    } else {
+        (choose_method(mask), jumps)
+    }
+}
+
+/// Jump edges ([`jump_edges`]) from which [`choose_method_for`] picks BiNI.
+pub const JUMP_EDGES: usize = 20;
+
 /// Gradients (p, q) of a normal map inside the mask (0 outside), and the number of
 /// normals that had to be clamped (see the module documentation).
 pub fn gradients(normals: &NormalMap, mask: &Mask, min_nz: f32) -> (GrayImage, GrayImage, usize) {

@@ -14,8 +14,11 @@
 //!      IJCV 6(3), 1991), which also yields the depth.
 //! 2. **Integration** of the normals into depth ([`crate::integrate`]); the integrator is
 //!    [`Options::method`], or chosen from the mask ([`crate::integrate::choose_method`]):
-//!    DCT Poisson on a full rectangle, masked least squares (weighted by the lookup's
-//!    confidence) otherwise.
+//!    DCT Poisson on a full rectangle; otherwise masked least squares weighted by each
+//!    gradient's trust ([`crate::integrate::trust_weights`]), followed by bilateral
+//!    integration (BiNI) when that depth shows interior depth jumps
+//!    ([`crate::integrate::choose_method_for`]); the integrator row of the figures says
+//!    which and why. The mesh leaves BiNI's discontinuities open.
 //! 3. **Mesh** from the depth ([`crate::mesh::from_depth`]).
 //! 4. **Accuracy** against ground truth when the [`Job`] has some: angular error of the
 //!    normals, depth RMSE after the best offset ([`crate::eval`]).
@@ -95,8 +98,9 @@ pub struct Job {
 /// [`Options::default`].
 #[derive(Clone, Debug)]
 pub struct Options {
-    /// Integrator; `None` = [`integrate::choose_method`] from the mask (DCT Poisson on a
-    /// full rectangle, masked least squares otherwise).
+    /// Integrator; `None` = chosen: DCT Poisson on a full rectangle, masked least squares
+    /// otherwise, then BiNI where least squares leaves interior depth jumps
+    /// ([`integrate::choose_method_for`]).
     pub method: Option<integrate::Method>,
     /// Remove interreflections (Nayar–Ikeuchi–Kanade iteration; Lambertian jobs only).
     pub interreflections: bool,
@@ -227,13 +231,14 @@ pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Outpu
         .method
         .unwrap_or_else(|| integrate::choose_method(&job.mask));
     let (est, circle, ir) = stages::normals(&mut st, job, opts, method)?;
-    let (depth, cuts) = match est.depth.clone() {
-        Some(d) => (d, None),
+    let auto = opts.method.is_none();
+    let (depth, cuts, method, why) = match est.depth.clone() {
+        Some(d) => (d, None, method, None),
         None => {
-            let out = st.run("integration", |p| {
-                stages::integrate_normals(&est, &job.mask, method, p)
+            let (out, why) = st.run("integration", |p| {
+                stages::integrate_auto(&est, &job.mask, method, auto, p)
             })?;
-            (out.depth, out.discontinuities)
+            (out.depth, out.discontinuities, out.method, why)
         }
     };
     let mesh = st.run("mesh", |_| {
@@ -263,6 +268,11 @@ pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Outpu
     ));
     if let Some(info) = &est.spatial {
         figures.extend(spatial_stage::rows(info, &job.mask));
+    }
+    if let Some(why) = why {
+        for row in figures.iter_mut().filter(|r| r.0 == "integrator") {
+            row.1 = format!("{} ({why})", method.name());
+        }
     }
     figures.extend(figures::picture_rows(job, est.albedo.as_ref(), &depth));
     let warnings = figures::warnings(job, est.confidence.as_ref(), opts);

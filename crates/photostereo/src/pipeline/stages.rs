@@ -161,21 +161,54 @@ pub(super) fn integrate_normals(
         method,
         integrate::Method::Lsq | integrate::Method::Bilateral { .. }
     );
-    let weights = weighted.then(|| {
-        integrate::trust_weights(
-            &est.normals,
-            mask,
-            est.albedo.as_ref(),
-            est.confidence.as_ref(),
-            &integrate::TrustOptions::default(),
-        )
-    });
+    let weights = weighted.then(|| trust(est, mask));
     let opts = integrate::Options {
         method,
         weights,
         ..Default::default()
     };
     integrate::solve_with_progress(&est.normals, mask, &opts, progress)
+}
+
+/// The trust of each pixel's gradient ([`integrate::trust_weights`]).
+fn trust(est: &Estimate, mask: &Mask) -> GrayImage {
+    integrate::trust_weights(
+        &est.normals,
+        mask,
+        est.albedo.as_ref(),
+        est.confidence.as_ref(),
+        &integrate::TrustOptions::default(),
+    )
+}
+
+/// [`integrate_normals`]; with `auto` (no integrator named) and least squares, BiNI
+/// instead where the least-squares depth has interior depth jumps. Returns the result
+/// and, with `auto`, why that integrator.
+pub(super) fn integrate_auto(
+    est: &Estimate,
+    mask: &Mask,
+    method: integrate::Method,
+    auto: bool,
+    progress: &dyn Progress,
+) -> Result<(integrate::Output, Option<String>)> {
+    let first = integrate_normals(est, mask, method, progress)?;
+    if !auto || method != integrate::Method::Lsq {
+        return Ok((first, None));
+    }
+    let trust = trust(est, mask);
+    let (chosen, jumps) =
+        integrate::choose_method_for(&first.depth, &est.normals, mask, Some(&trust));
+    let limit = integrate::JUMP_EDGES;
+    if chosen == integrate::Method::Lsq {
+        let why = format!("chosen: {jumps} edges where least squares jumps, fewer than {limit}");
+        return Ok((first, Some(why)));
+    }
+    let out = integrate_normals(est, mask, chosen, progress)?;
+    let cut = out.discontinuities.as_ref().map_or(0, |d| d.count());
+    let why = format!(
+        "chosen: least squares jumps across {jumps} edges (≥ {limit}); BiNI cut {cut} edges"
+    );
+    Ok((out, Some(why)))
 }
 
 fn nik(

@@ -44,7 +44,9 @@
 //!
 //! **A mask only says where to search.** With [`DetectOptions::mask`] (the sphere
 //! folder's `mask.png` in `calibrate` and `run --sphere` alike, or `--mask`) steps 2–6
-//! look only inside it, but step 7 fits the rim on the unmasked images, so the
+//! look only inside it widened by 3 px (a silhouette mask would otherwise hide the
+//! background from the threshold and the edge profiles), but step 7 fits the rim on the
+//! unmasked images, so the
 //! circle is the images' whichever mask is given (a mask that covers the sphere gives
 //! the same circle within 0.01 px as none).
 //!
@@ -306,6 +308,9 @@ pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
         m.check_size(w, h, "sphere mask")?;
     }
     let win = (x0, y0, rw, rh);
+    // a tight silhouette mask would hide the background from the threshold and the
+    // edge profiles: search inside it widened by a margin
+    let search = opts.mask.as_ref().map(|m| dilate(m, SEARCH_MARGIN_PX));
     let blob = match (&opts.mask, opts.mask_outline) {
         (Some(m), true) => {
             let outline = m.map(|&b| if b { 1.0 } else { 0.0 });
@@ -319,15 +324,18 @@ pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
                 "no mask was given: pass the sphere's mask (--mask FILE)",
             ))
         }
-        (mask, false) => detect_blob(&max_image, mask.as_ref(), win, opts, max_image.clone()),
+        (_, false) => detect_blob(&max_image, search.as_ref(), win, opts, max_image.clone()),
     };
     let det = match blob {
-        Err(Error::SphereNotFound { what, reason, fix }) => contrast_fallback(stack, opts, win)
-            .map_err(|why| Error::SphereNotFound {
-                what,
-                reason: format!("{reason}; from contrast edges: {why}"),
-                fix,
-            }),
+        Err(Error::SphereNotFound { what, reason, fix }) => {
+            contrast_fallback(stack, search.as_ref(), opts, win).map_err(|why| {
+                Error::SphereNotFound {
+                    what,
+                    reason: format!("{reason}; from contrast edges: {why}"),
+                    fix,
+                }
+            })
+        }
         other => other,
     }?;
     Ok(if opts.rim_model {
@@ -412,13 +420,28 @@ fn refine_on_rim(
     }
 }
 
+/// Margin (pixels) by which a search mask is widened (Chebyshev distance).
+const SEARCH_MARGIN_PX: usize = 3;
+
+/// `mask` dilated by `r` pixels (a (2r+1)² square), separably.
+fn dilate(mask: &Mask, r: usize) -> Mask {
+    let (w, h) = (mask.width, mask.height);
+    let rows = Mask::from_fn(w, h, |row, col| {
+        (col.saturating_sub(r)..(col + r + 1).min(w)).any(|c| *mask.get(row, c))
+    });
+    Mask::from_fn(w, h, |row, col| {
+        (row.saturating_sub(r)..(row + r + 1).min(h)).any(|rr| *rows.get(rr, col))
+    })
+}
+
 /// Step 6 of the module docs, as a [`Detection`].
 fn contrast_fallback(
     stack: &ImageStack,
+    mask: Option<&Mask>,
     opts: &DetectOptions,
     win: (usize, usize, usize, usize),
 ) -> std::result::Result<Detection, String> {
-    let fit = detect_contrast(stack, opts.mask.as_ref(), win, opts)?;
+    let fit = detect_contrast(stack, mask, win, opts)?;
     Ok(Detection {
         circle: fit.circle,
         rms_residual_px: fit.rms_residual_px,
