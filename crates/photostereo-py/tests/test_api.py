@@ -251,13 +251,18 @@ def test_gil_released(data):
 # ---- errors: the exception type of each kind, with the library's message -------------
 
 
-def test_missing_path_is_file_not_found(tmp_path):
+def test_missing_path_is_file_not_found(data, tmp_path):
     with pytest.raises(FileNotFoundError, match="nowhere"):
         ps.load_dataset(tmp_path / "nowhere")
     with pytest.raises(FileNotFoundError, match="none.lut"):
         ps.Table.load(tmp_path / "none.lut")
     with pytest.raises(FileNotFoundError):
         ps.run(tmp_path / "nowhere", tmp_path / "o", lambertian=True)
+    with pytest.raises(FileNotFoundError, match="nope.txt"):
+        ps.run(tmp_path / "nowhere", tmp_path / "o", lambertian=True, lights=tmp_path / "nope.txt")
+    # chrome= implies lambertian (as `run --chrome`): the missing sphere folder is named
+    with pytest.raises(FileNotFoundError, match="no_chrome"):
+        ps.run(data["matte"], tmp_path / "o", chrome=tmp_path / "no_chrome")
 
 
 def test_file_problem_is_oserror(data, tmp_path):
@@ -290,6 +295,10 @@ def test_bad_data_is_value_error(data, tmp_path):
         ps.lookup(np.zeros((20, 20), np.float32), [table])  # not (K, H, W)
     with pytest.raises(ValueError, match="method"):
         ps.integrate(np.zeros((8, 8, 3), np.float32), method="magic")
+    with pytest.raises(ValueError, match="normals of shape"):
+        ps.integrate(np.zeros((8, 8), np.float32))  # not (H, W, 3)
+    with pytest.raises(ValueError, match="lights of shape"):
+        ps.lambertian(data["matte"], lights=np.zeros(12, np.float32))  # not (K, 3)
     with pytest.raises(ValueError, match="camera"):
         ps.integrate(np.zeros((8, 8, 3), np.float32), camera=np.eye(2))  # not 3x3
     with pytest.raises(ValueError, match="skew"):

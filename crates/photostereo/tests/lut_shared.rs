@@ -288,9 +288,21 @@ fn diligent_ball_rescaled_by_band() {
     };
     let (mask, truth) = sphere_truth(&scaled, w, h, 0.71);
     let [s, _] = compare("DiLiGenT ball 0.75×", &small, &mask, &truth, &t);
-    // measured: mean 0.258°, 0.44% of pixels over 2° (before the rim model and the
-    // certificate: 0.357°, 2.88%); issue 10's target is < 0.15°
-    assert!(s.mean < 0.35 && s.over2 < 0.01, "{s:?}");
+    // measured: mean 0.082°, 0.02% of pixels over 2°, with the table's automatic blur
+    // scaled for K = 96 lights (0.55 px; 0.258° and 0.44% with the K-blind 1.35 px;
+    // 0.357°, 2.88% before the rim model and the certificate); issue 10's target < 0.15°
+    assert!(s.mean < 0.15 && s.over2 < 0.002, "{s:?}");
+    // the table on the circle the detector finds (no mask given), same target and truth
+    let found = sphere::detect(&ball.stack, &DetectOptions::default())
+        .unwrap()
+        .circle;
+    let t = table(&ball.stack, &found);
+    let f = score(&solve(&small, &mask, &t, Method::Refined), &truth, &mask);
+    print(&format!("DiLiGenT ball 0.75×, circle found {found:?}"), &f);
+    // measured 0.779° (bands 0.53 / 1.43 / 2.46 / 2.87°) on the circle found
+    // (112.340, 112.139, r 71.495: +0.74 px in radius); issue 10's target < 0.25° is
+    // missed with that circle, the lookup itself gives 0.082° on the truth's
+    assert!(f.mean < 1.5, "{f:?}");
 }
 
 /// The 16-bit scale of a render (`"scale"` in its `meta.json`).

@@ -137,3 +137,28 @@ fn split_specular_fits_textured_plastic() {
     assert!(p_all > 3.0 * s_all, "{s_all:.3}° vs {p_all:.3}°");
     assert!(a_err < 0.006, "albedo error {a_err:.4}");
 }
+
+#[test]
+fn split_specular_refuses_two_tables_and_other_methods() {
+    let t = table(Material::shiny_plastic(), 30.0);
+    let s = synth::render(&SceneOptions {
+        width: 64,
+        height: 64,
+        shape: Shape::preset(ShapeKind::Vase, 64, 64),
+        ..SceneOptions::default()
+    })
+    .unwrap();
+    let split = Options {
+        split_specular: true,
+        ..Options::default()
+    };
+    let two = [t.clone(), t.clone()];
+    let err = lut::solve(&s.stack, &s.mask, &two, &split, &NoProgress).unwrap_err();
+    assert!(err.to_string().contains("split"), "{err}");
+    let nearest = Options {
+        method: lut::Method::Nearest,
+        ..split
+    };
+    let err = lut::solve(&s.stack, &s.mask, &[t], &nearest, &NoProgress).unwrap_err();
+    assert!(err.to_string().contains("Refined"), "{err}");
+}

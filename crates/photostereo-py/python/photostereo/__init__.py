@@ -83,6 +83,24 @@ def _dataset(x: Images) -> Dataset:
     return Dataset(np.asarray(arr, dtype=np.float32))
 
 
+def _array(x: Any, what: str, shape: str, ndim: int, last: Optional[int] = None) -> np.ndarray:
+    """x as a float32 array of `ndim` dimensions (the last of size `last`), else ValueError."""
+    a = np.asarray(x, dtype=np.float32)
+    if a.ndim != ndim or (last is not None and a.shape[-1] != last):
+        raise ValueError(f"{what} of shape {a.shape}: give a {shape} array")
+    return a
+
+
+def _existing(path: Optional[PathLike], what: str, fix: str) -> Optional[str]:
+    """A path that must exist (FileNotFoundError naming it and the fix otherwise), or None."""
+    if path is None:
+        return None
+    p = os.fspath(path)
+    if not os.path.exists(p):
+        raise FileNotFoundError(f"{what} {p}: no such file: {fix}")
+    return p
+
+
 def _mask(mask: Any, default: Optional[np.ndarray] = None) -> Optional[np.ndarray]:
     if mask is None:
         return default
@@ -197,9 +215,8 @@ def lambertian(
         lights = ds.lights
     if lights is None:
         raise ValueError("no light directions: pass lights=(K, 3) or a dataset with light_directions.txt")
-    return _native.lambertian(
-        ds.images, np.asarray(lights, dtype=np.float32), mask=_mask(mask, ds.mask), robust=robust
-    )
+    lights = _array(lights, "lights", "(K, 3)", 2, 3)
+    return _native.lambertian(ds.images, lights, mask=_mask(mask, ds.mask), robust=robust)
 
 
 def lights_from_sphere(
@@ -276,8 +293,8 @@ def integrate(
                 "[[fx, 0, cx], [0, fy, cy], [0, 0, 1]], a K.txt path or a focal length"
             )
         cam = ("\n".join(" ".join(repr(float(v)) for v in row) for row in k), "camera matrix")
-    n = np.asarray(normals, dtype=np.float32)
-    w = None if weights is None else np.asarray(weights, dtype=np.float32)
+    n = _array(normals, "normals", "(H, W, 3)", 3, 3)
+    w = None if weights is None else _array(weights, "weights", "(H, W)", 2)
     return _native.integrate(
         n,
         mask=_mask(mask),
@@ -324,7 +341,7 @@ def interreflect(
         images = images * np.float32(image_scale)
     normals, albedo, depth, summary, csv, rows, best = _native.interreflect(
         images,
-        np.asarray(lights, dtype=np.float32),
+        _array(lights, "lights", "(K, 3)", 2, 3),
         mask=_mask(mask, ds.mask),
         max_iter=int(max_iter),
         tol=float(tol),
@@ -365,7 +382,8 @@ def run(
     target: dataset directory; out: output directory (created).
     sphere: calibration sphere directory, or a Table built beforehand (calibration-based).
     lambertian: Lambertian photometric stereo with known lights (the dataset's
-        light_directions.txt, or ``lights`` file, or ``chrome`` sphere directory).
+        light_directions.txt, or ``lights`` file, or ``chrome`` sphere directory; a
+        ``chrome`` sphere implies it, as ``run --chrome``).
     interreflections: remove interreflections (Lambertian only).
     image_scale: factor to bring the images to radiance units (Lambertian).
     method: integrator ("path", "fc", "fc-reflect", "dct", "lsq"; default from the mask).
@@ -384,8 +402,14 @@ def run(
         os.fspath(out),
         sphere=sphere_path,
         table=table,
-        lambertian=lambertian,
-        lights=None if lights is None else os.fspath(lights),
+        # as the CLI: lights from a chrome sphere mean Lambertian photometric stereo
+        lambertian=lambertian or chrome is not None,
+        lights=_existing(
+            lights,
+            "lights",
+            "give a text file of K lines `x y z` (one light direction per image, in image "
+            "order), or leave lights out to use the dataset's light_directions.txt",
+        ),
         chrome=None if chrome is None else os.fspath(chrome),
         mask=None if mask is None else os.fspath(mask),
         image_scale=image_scale,

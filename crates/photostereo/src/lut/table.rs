@@ -24,9 +24,15 @@ pub struct BuildOptions {
     /// Standard deviation (pixels) of a Gaussian blur of the sphere images against
     /// noise; `Some(0.0)` = none. A blur of σ biases the tuples by about σ²/2 · ΔI, so
     /// it pays only on noisy spheres. `None` (default) chooses it from the noise
-    /// estimated on the sphere ([`estimate_noise`]): 150 × noise / typical sample
-    /// pixels (typical = median of the samples above 3 × noise), at most 1.5 px, and none
-    /// when that is below 0.3 px (1% noise on a sphere of albedo ~0.8 gives 1.5 px).
+    /// estimated on the sphere ([`estimate_noise`]): 150 × noise / typical sample ×
+    /// min(1, √(16 / K)) pixels (typical = median of the samples above 3 × noise), at
+    /// most 1.5 px, and none when that is below 0.3 px (1% noise on a sphere of albedo
+    /// ~0.8 under 16 lights gives 1.5 px). The rule was set at K = 12–16; the noise that
+    /// one table sample puts into a fitted normal falls as 1/√K, hence the factor for
+    /// more lights
+    /// (DiLiGenT's ball, K = 96: 1.35 → 0.55 px; its 0.75× lookup in `lut_shared`
+    /// 0.258° → 0.07°, against 0.111 / 0.072 / 0.115 / 0.176 / 0.270° with fixed blurs
+    /// of 0.3 / 0.5 / 0.7 / 1.0 / 1.4 px).
     pub smooth: Option<f64>,
 }
 
@@ -444,7 +450,8 @@ fn auto_smooth(window: &Window, circle: &Circle, rim: f64) -> f64 {
     if typical.is_nan() || typical <= 0.0 {
         return 0.0;
     }
-    let blur = (150.0 * noise / typical).min(1.5) as f64;
+    let lights = (16.0 / window.stack.k.max(1) as f64).sqrt().min(1.0);
+    let blur = (150.0 * (noise / typical) as f64 * lights).min(1.5);
     if blur < 0.3 {
         0.0
     } else {
