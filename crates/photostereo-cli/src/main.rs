@@ -60,7 +60,22 @@ pub struct Global {
     pub quiet: bool,
 }
 
+/// Let a closed stdout end the process the way it ends `cat` or `ls`.
+///
+/// Rust ignores SIGPIPE, so `println!` to a pipe whose reader has gone (`photostereo
+/// calibrate ... | head -1`) panics with "failed printing to stdout". Every output file
+/// is written atomically (temporary name, then rename), so dying here leaves none torn.
+fn restore_default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: `signal` with a valid signal number and `SIG_DFL` only resets that
+    // signal's disposition; it runs first thing in `main`, before any thread exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 fn main() {
+    restore_default_sigpipe();
     let cli = Cli::parse();
     let global = Global { quiet: cli.quiet };
     let result = match cli.command {

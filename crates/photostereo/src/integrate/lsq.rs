@@ -31,7 +31,7 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{MatMut, Side};
 
 /// Relative residual ‖b − Lz‖/‖b‖ at which CG stops.
-pub(crate) const TOL: f64 = 1e-7;
+pub(crate) const TOL: f64 = 1e-6;
 /// CG iterations before falling back to Cholesky.
 pub(crate) const MAX_ITER: usize = 300;
 
