@@ -86,8 +86,9 @@ pub struct Options {
     /// Conjugate-gradient iterations per level (the coarsest level gets 300). Default 40.
     pub iterations: usize,
     /// Standard error (unit-normal components) of the occluding-contour prior at the
-    /// mask's edge (see the module docs); `None` = no such prior (masks that cut through
-    /// a surface instead of following the object's silhouette). Default `Some(0.01)`.
+    /// mask's edge along the contour's tangent (see the module docs; the tilt towards the
+    /// outward direction is held only loosely); `None` = no such prior (masks that cut through
+    /// a surface instead of following the object's silhouette). Default `Some(0.03)`.
     pub contour_sigma: Option<f32>,
     /// [`solve_table`]: dark level of the cast-shadow rule, as in [`lut::Options::shadow_level`].
     /// Default 0.03.
@@ -107,7 +108,7 @@ impl Default for Options {
             smoothness: 0.01,
             jump: 0.15,
             iterations: 40,
-            contour_sigma: Some(0.01),
+            contour_sigma: Some(0.03),
             shadow_level: lut::Options::default().shadow_level,
             passes: 4,
             trust: 25.0,
@@ -288,10 +289,10 @@ fn quadratic(
     };
     let (mut a, mut b) = (a.to_vec(), b.to_vec());
     if let Some(sc) = opts.contour_sigma {
-        let info = 1.0 / (sc * sc);
         for (i, u) in contour::contour_normals(mask) {
-            a[i] = [a[i][0] + info, a[i][1], a[i][2] + info];
-            b[i] = [b[i][0] + info * u[0], b[i][1] + info * u[1]];
+            let (da, db) = contour::prior(u, sc);
+            a[i] = [a[i][0] + da[0], a[i][1] + da[1], a[i][2] + da[2]];
+            b[i] = [b[i][0] + db[0], b[i][1] + db[1]];
         }
     }
     let mut levels = vec![Level::finest((w, h), m, (&a, &b), lambda, pair_ok)];
