@@ -63,17 +63,7 @@ pub(super) fn after_lookup(
             Some(sp_opts) => {
                 let lookup = (&est.normals, albedo);
                 let sp = spatial::solve_lookup(stack, mask, table, lookup, &noise, sp_opts)?;
-                est.normals = sp.normals;
-                est.confidence = est
-                    .confidence
-                    .as_ref()
-                    .map(|c| spatial::confidence_after(c, &sp.own_share));
-                SpatialInfo {
-                    noise,
-                    sigma: sp.sigma_deg,
-                    own_share: Some(sp.own_share),
-                    stats: Some(sp.stats),
-                }
+                adopt(&mut est, noise, sp)
             }
         };
         est.spatial = Some(info);
@@ -105,18 +95,28 @@ pub(super) fn after_lambertian(
             None => own_only(noise, ev.sigma_deg(mask)),
             Some(sp_opts) => {
                 let sp = spatial::solve(&ev, mask, sp_opts)?;
-                est.normals = sp.normals;
-                SpatialInfo {
-                    noise,
-                    sigma: sp.sigma_deg,
-                    own_share: Some(sp.own_share),
-                    stats: Some(sp.stats),
-                }
+                adopt(&mut est, noise, sp)
             }
         };
         est.spatial = Some(info);
         Ok(est)
     })
+}
+
+/// Take the spatial stage's normals into `est` (its confidence, where it has one, is
+/// multiplied by each pixel's own share) and return what the stage reports.
+fn adopt(est: &mut Estimate, noise: NoiseModel, sp: spatial::Output) -> SpatialInfo {
+    est.normals = sp.normals;
+    est.confidence = est
+        .confidence
+        .as_ref()
+        .map(|c| spatial::confidence_after(c, &sp.own_share));
+    SpatialInfo {
+        noise,
+        sigma: sp.sigma_deg,
+        own_share: Some(sp.own_share),
+        stats: Some(sp.stats),
+    }
 }
 
 fn own_only(noise: NoiseModel, sigma: GrayImage) -> SpatialInfo {
