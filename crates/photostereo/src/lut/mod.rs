@@ -298,9 +298,14 @@ fn check_inputs(stack: &ImageStack, mask: &Mask, tables: &[Table], opts: &Option
         ));
     }
     if (tables.len() == 2 || opts.split_specular) && opts.method != Method::Refined {
+        let what = if opts.split_specular {
+            "the diffuse/specular split"
+        } else {
+            "two tables"
+        };
         return Err(Error::invalid(
-            format!("method {:?} with two tables", opts.method),
-            "mixtures of two materials need Method::Refined",
+            format!("method {:?} with {what}", opts.method),
+            "a two-part mixture (two materials, or diffuse + specular) needs Method::Refined",
         ));
     }
     if let Method::InverseDistance { neighbours } = opts.method {
