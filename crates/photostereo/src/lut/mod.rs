@@ -93,6 +93,7 @@
 //!
 //! The table itself (building, file format) is in [`table`] and [`format`].
 
+pub mod denoise;
 mod diffuse;
 pub mod format;
 pub mod index;
@@ -103,6 +104,7 @@ mod search;
 mod single;
 pub mod table;
 
+pub use denoise::Denoise;
 pub use table::{BuildOptions, Entries, Table, Window};
 
 use crate::error::{Error, Result};
