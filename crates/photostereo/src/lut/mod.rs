@@ -95,6 +95,7 @@
 //!
 //! The table itself (building, file format) is in [`table`] and [`format`].
 
+pub mod denoise;
 mod diffuse;
 pub mod format;
 pub mod index;
@@ -105,6 +106,7 @@ mod search;
 mod single;
 pub mod table;
 
+pub use denoise::Denoise;
 pub use table::{BuildOptions, Entries, Table, Window};
 
 use crate::error::{Error, Result};
