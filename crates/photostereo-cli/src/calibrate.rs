@@ -89,6 +89,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         rim: args.rim,
         material: args.material.clone(),
         smooth: args.smooth,
+        ..BuildOptions::default()
     };
     let table = Table::build(&data.stack, &c, &opts)
         .with_context(|| format!("building the lookup table from {}", args.dir.display()))?;

@@ -6,41 +6,16 @@
 //! 0.488° / 0.494°. (The first, isotropic prior held the tilt at 0.98 with σ 0.01 and
 //! made the edge worse, 3.31°; the prior is now tight only along the contour's tangent.)
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::PathBuf;
 
 use photostereo::io;
 use photostereo::{Mask, NormalMap};
 
+mod common;
+use common::{photostereo_ok as photostereo, s};
+
 fn tmp(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("contour-cli")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Run the executable; asserts success.
-fn photostereo(args: &[&str]) {
-    let out = Command::new(env!("CARGO_BIN_EXE_photostereo"))
-        .args(args)
-        .output()
-        .expect("start photostereo");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    println!(
-        "$ photostereo {}\n{}{stderr}",
-        args.join(" "),
-        String::from_utf8_lossy(&out.stdout)
-    );
-    assert!(
-        out.status.success(),
-        "photostereo {args:?} failed: {stderr}"
-    );
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::scratch("contour-cli", name)
 }
 
 /// Mean angular error (degrees) over the mask's edge pixels (a 4-neighbour outside the

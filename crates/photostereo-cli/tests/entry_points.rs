@@ -4,10 +4,12 @@
 //! the accuracy it prints asserted.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use photostereo::interreflect::nik::depth_range;
 use photostereo::io;
+
+mod common;
+use common::{photostereo_ok as photostereo, s};
 
 fn tmp(name: &str) -> PathBuf {
     let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
@@ -15,25 +17,6 @@ fn tmp(name: &str) -> PathBuf {
         .join(name);
     let _ = std::fs::remove_dir_all(&d);
     d
-}
-
-/// `photostereo ARGS...`, which must succeed; returns stdout.
-fn photostereo(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_photostereo"))
-        .args(args)
-        .output()
-        .expect("start photostereo");
-    assert!(
-        out.status.success(),
-        "photostereo {}: {}",
-        args.join(" "),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// A 64×64 Lambertian bowl (albedo 0.8, 12 lights) rendered with all bounces by

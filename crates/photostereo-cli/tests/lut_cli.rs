@@ -6,7 +6,6 @@
 //! fail with a message naming the thing and the fix, and leave no output file behind.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use photostereo::image::ImageStack;
 use photostereo::io;
@@ -14,30 +13,11 @@ use photostereo::lut::Table;
 use photostereo::synth::default_lights;
 use photostereo::{GrayImage, Mask, NormalMap};
 
-/// A fresh, empty directory under Cargo's scratch space for integration tests.
+mod common;
+use common::{photostereo, s};
+
 fn tmp(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("lut-cli")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Run the executable; (success, stdout, stderr).
-fn photostereo(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_photostereo"))
-        .args(args)
-        .output()
-        .expect("start photostereo");
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    println!("$ photostereo {}\n{stdout}{stderr}", args.join(" "));
-    (out.status.success(), stdout, stderr)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::scratch("lut-cli", name)
 }
 
 /// `photostereo synth` into `dir`: a `size`² blob of `material` under `k` lights and, with

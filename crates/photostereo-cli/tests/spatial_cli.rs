@@ -4,38 +4,15 @@
 //! written by `photostereo synth` (128², 16 lights, sphere r = 50, noise 2% of full scale).
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use photostereo::io;
 use photostereo::{Mask, NormalMap};
 
+mod common;
+use common::{photostereo_ok as photostereo, s};
+
 fn tmp(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("spatial-cli")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Run the executable; asserts success, returns stdout.
-fn photostereo(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_photostereo"))
-        .args(args)
-        .output()
-        .expect("start photostereo");
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    println!("$ photostereo {}\n{stdout}{stderr}", args.join(" "));
-    assert!(
-        out.status.success(),
-        "photostereo {args:?} failed: {stderr}"
-    );
-    stdout
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::scratch("spatial-cli", name)
 }
 
 /// The noisy plastic blob with its sphere, and its table: (dataset dir, table path).

@@ -5,35 +5,16 @@
 //! search finds the disk; with it both subcommands find the sphere.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use photostereo::image::ImageStack;
 use photostereo::io;
 use photostereo::Mask;
 
+mod common;
+use common::{photostereo, s};
+
 fn tmp(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("sphere-mask-cli")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Run the executable; (success, stdout, stderr).
-fn photostereo(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_photostereo"))
-        .args(args)
-        .output()
-        .expect("start photostereo");
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    println!("$ photostereo {}\n{stdout}{stderr}", args.join(" "));
-    (out.status.success(), stdout, stderr)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::scratch("sphere-mask-cli", name)
 }
 
 /// Three numbers after `key` in the line starting with `start`, separated by ", " with

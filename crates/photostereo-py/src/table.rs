@@ -206,6 +206,7 @@ pub fn calibrate(
             rim,
             material,
             smooth,
+            ..lut::BuildOptions::default()
         },
         ..Default::default()
     };

@@ -102,7 +102,7 @@ fn trust_weights_lower_the_depth_error_at_the_outline_and_on_dark_pixels() {
             "{}: depth RMSE {plain:.3} px unweighted, {trusted:.3} px with trust weights (range {range:.1} px)",
             method.name()
         );
-        // Measured: lsq 1.003 → 0.101 px, bini 0.465 → 0.284 px. Other settings
+        // Measured: lsq 1.003 → 0.101 px, bini 0.435 → 0.284 px. Other settings
         // (outline, steep_nz → lsq, bini px): (0, 0.1) 0.193, 0.171; (0, 0.2) 0.106,
         // 0.244; (1, 0.2) 0.230, 0.321; (2, 0.1) 0.167, 0.625; (2, 0.2) 0.411, 0.640:
         // on this exact silhouette a wide outline band costs accuracy (the real objects'

@@ -161,4 +161,7 @@ fn split_specular_refuses_two_tables_and_other_methods() {
     };
     let err = lut::solve(&s.stack, &s.mask, &[t], &nearest, &NoProgress).unwrap_err();
     assert!(err.to_string().contains("Refined"), "{err}");
+    // The message names what was asked for (the split), not a second table.
+    assert!(err.to_string().contains("diffuse/specular split"), "{err}");
+    assert!(!err.to_string().contains("two tables"), "{err}");
 }

@@ -89,6 +89,7 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
         ));
     }
     create_dir_all(&dir)?;
+    remove_stale_temps(&dir, &name.to_string_lossy());
     let tmp = temp_path(&dir, &name.to_string_lossy());
     let result = write_temp(&tmp, fill)
         .and_then(|()| fs::rename(&tmp, path).map_err(|e| Error::io(path, e)));
@@ -116,6 +117,33 @@ fn temp_path(dir: &Path, name: &str) -> PathBuf {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
     dir.join(format!(".{name}.tmp-{}-{n}", std::process::id()))
+}
+
+/// Remove the temporaries of `name` in `dir` left by a process that no longer runs (one
+/// killed by SIGKILL or a power cut while writing, which cannot clean up after itself).
+/// A temporary whose process still runs (a concurrent writer) is left alone. Best
+/// effort: an error here only leaves the stale file, it never fails the write. Linux
+/// only (it asks `/proc` whether the writer lives); elsewhere nothing is removed.
+fn remove_stale_temps(dir: &Path, name: &str) {
+    if !cfg!(target_os = "linux") || !Path::new("/proc/self").exists() {
+        return;
+    }
+    let prefix = format!(".{name}.tmp-");
+    let Ok(entries) = fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let Some(rest) = file_name.to_str().and_then(|n| n.strip_prefix(&prefix)) else {
+            continue;
+        };
+        let Some(Ok(pid)) = rest.split_once('-').map(|(pid, _)| pid.parse::<u32>()) else {
+            continue;
+        };
+        if !Path::new("/proc").join(pid.to_string()).exists() {
+            let _ = fs::remove_file(entry.path());
+        }
+    }
 }
 
 fn write_temp(tmp: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
@@ -180,4 +208,34 @@ pub(crate) fn not_found_or_io(path: &Path, e: std::io::Error, fix: &str) -> Erro
 /// An encoder error while writing `path`.
 pub(crate) fn encode_error(path: &Path, e: impl std::fmt::Display) -> Error {
     Error::io(path, std::io::Error::other(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_killed_writers_temporary_is_removed_a_live_ones_kept() {
+        let dir = std::env::temp_dir().join(format!("ps-io-stale-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).unwrap();
+        // Linux pids are at most 2^22, so this writer cannot be running.
+        let dead = dir.join(".depth.npy.tmp-999999999-0");
+        let live = dir.join(format!(".depth.npy.tmp-{}-999", std::process::id()));
+        let other = dir.join(".normals.npy.tmp-999999999-0");
+        for f in [&dead, &live, &other] {
+            fs::write(f, b"partial").unwrap();
+        }
+        write_bytes(&dir.join("depth.npy"), b"whole").unwrap();
+        assert_eq!(fs::read(dir.join("depth.npy")).unwrap(), b"whole");
+        if cfg!(target_os = "linux") {
+            assert!(!dead.exists(), "a dead writer's temporary is removed");
+        }
+        assert!(live.exists(), "a running writer's temporary is kept");
+        assert!(
+            other.exists(),
+            "only the temporaries of the file written are touched"
+        );
+        let _ = fs::remove_dir_all(&dir);
+    }
 }

@@ -19,9 +19,10 @@
 //! plastics, Fresnel-weighted diffuse) the difference lands in S, which then does not
 //! scale with the albedo: an approximation, small next to the highlight.
 //!
-//! **Up to 90°.** The mixture has no rim refit of its own, so the two tables are
-//! extended instead: past the table's last clean ring (θ_c, see `rim.rs`) every window
-//! pixel takes D from the fitted g_k at its normal (clamped to the circle) and S = the
+//! **Up to 90°.** The mixture has no rim refit of its own, so its two tables are
+//! extended instead ([`extend`], which also extends both tables of a two-material
+//! mixture): past the table's last clean ring (θ_c, see `rim.rs`) every window pixel
+//! takes D from the fitted g_k at its normal (clamped to the circle) and S = the
 //! rim model of the whole reflectance there minus D, and the split tables' search
 //! radius reaches [`REACH`] px short of the circle (about 89° on R = 100): a target
 //! normal between θ_c and 90° is fitted on the model, not clamped to the table's edge.
@@ -42,51 +43,65 @@ const TERMINATOR: f64 = 0.05;
 /// rim model extends them.
 const REACH: f64 = 0.02;
 
-/// The diffuse and specular tables of `table` (same window, circle and entries).
-pub(crate) fn split(table: &Table) -> [Table; 2] {
+/// `table` extended past its last clean ring with the rim model (module docs): every
+/// window pixel beyond the clean ring takes the model's tuple at its own normal (clamped
+/// to the circle), and the search reaches [`REACH`] px short of the circle. Used for both
+/// tables of a two-material mixture, which has no rim refit of its own. Unchanged when
+/// the table is too small to hold a ring.
+pub(crate) fn extend(table: &Table) -> Table {
+    let mut out = table.clone();
+    let Some(rim) = Rim::fit(table) else {
+        return out;
+    };
     let k = table.k;
-    let g: Vec<[f64; 3]> = (0..k).map(|i| fit_light(table, i)).collect();
-    let rim = Rim::fit(table);
-    let mut diffuse = table.clone();
-    let mut specular = table.clone();
-    diffuse.material = format!("{} (diffuse part)", table.material);
-    specular.material = format!("{} (specular part)", table.material);
-    let ws = &table.window.stack;
+    let ws = &mut out.window.stack;
     let (cgx, cgy) = table.to_grid(table.circle.cx, table.circle.cy);
     let clean = table.search_radius() + 1.0;
     let mut buf = RimBuf::new(k);
     for r in 0..ws.height {
         for c in 0..ws.width {
-            let at = (r * ws.width + c) * k;
             let (x, y) = (c as f64, r as f64);
-            let d = ((x - cgx).powi(2) + (y - cgy).powi(2)).sqrt();
-            let (n, tuple) = match &rim {
-                // past the clean ring: the rim model at the pixel's own normal
-                Some(rim) if d >= clean => {
-                    let n = unit(table.grid_normal(x, y));
-                    (n, rim.tuple(n, &mut buf))
-                }
-                Some(_) => (unit(table.grid_normal(x, y)), &ws.data[at..at + k]),
-                // padded pixels take the normal of the nearest point of the search disc
-                None => {
-                    let (gx, gy) = table.clamp_grid(x, y);
-                    (table.grid_normal(gx, gy), &ws.data[at..at + k])
-                }
-            };
-            let (dst_d, dst_s) = (
-                &mut diffuse.window.stack.data,
-                &mut specular.window.stack.data,
-            );
-            for (i, gi) in g.iter().enumerate() {
-                let v = lambert(&n, gi);
-                dst_d[at + i] = v;
-                dst_s[at + i] = tuple[i] - v;
+            if ((x - cgx).powi(2) + (y - cgy).powi(2)).sqrt() >= clean {
+                let at = (r * ws.width + c) * k;
+                let n = unit(table.grid_normal(x, y));
+                ws.data[at..at + k].copy_from_slice(rim.tuple(n, &mut buf));
             }
         }
     }
-    if rim.is_some() {
-        let reach = REACH.min(table.rim);
-        (diffuse.rim, specular.rim) = (reach, reach);
+    out.rim = REACH.min(table.rim);
+    out
+}
+
+/// The diffuse and specular tables of `table` (same window, circle and entries), both
+/// extended past the table's edge ([`extend`]).
+pub(crate) fn split(table: &Table) -> [Table; 2] {
+    let k = table.k;
+    let g: Vec<[f64; 3]> = (0..k).map(|i| fit_light(table, i)).collect();
+    let ext = extend(table);
+    let extended = ext.rim < table.rim;
+    let mut diffuse = ext.clone();
+    let mut specular = ext.clone();
+    diffuse.material = format!("{} (diffuse part)", table.material);
+    specular.material = format!("{} (specular part)", table.material);
+    let ws = &ext.window.stack;
+    for r in 0..ws.height {
+        for c in 0..ws.width {
+            let at = (r * ws.width + c) * k;
+            let (x, y) = (c as f64, r as f64);
+            let n = if extended {
+                unit(table.grid_normal(x, y))
+            } else {
+                // padded pixels take the normal of the nearest point of the search disc
+                let (gx, gy) = table.clamp_grid(x, y);
+                table.grid_normal(gx, gy)
+            };
+            let tuple = &ws.data[at..at + k];
+            for (i, gi) in g.iter().enumerate() {
+                let v = lambert(&n, gi);
+                diffuse.window.stack.data[at + i] = v;
+                specular.window.stack.data[at + i] = tuple[i] - v;
+            }
+        }
     }
     for (e, n) in table.entries.normals.iter().enumerate() {
         let at = e * k;

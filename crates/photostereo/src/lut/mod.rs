@@ -78,7 +78,9 @@
 //! fit for each candidate normal, searched exhaustively on a coarse grid of normals and
 //! refined as above, with variable projection (the Jacobian's part that the weights
 //! absorb is projected out) and a fine pattern search against the bilinear creases;
-//! (a, b) are returned in [`Output::weights`]. A light counts as cast-shadowed below
+//! (a, b) are returned in [`Output::weights`]. Both tables are extended past their
+//! last clean ring to about 89° with their rim models (`diffuse::extend`), so grazing
+//! normals are fitted, not clamped to a table's edge. A light counts as cast-shadowed below
 //! `shadow_level` × the pixel's brightest predicted sample. The weights' standard error
 //! σ_w = max(σ_a, σ_b) from the Gauss–Newton covariance σ²(JᵀJ)⁻¹ of (gx, gy, a, b),
 //! σ² = cost/(lights − 4), is returned in [`Output::weight_sigma`] and multiplies the
@@ -97,6 +99,7 @@
 //!
 //! The table itself (building, file format) is in [`table`] and [`format`].
 
+pub mod denoise;
 mod diffuse;
 pub mod format;
 pub mod index;
@@ -107,6 +110,7 @@ mod search;
 mod single;
 pub mod table;
 
+pub use denoise::Denoise;
 pub use table::{BuildOptions, Entries, Table, Window};
 
 use crate::error::{Error, Result};
@@ -239,6 +243,10 @@ pub fn solve(
     let tables = if opts.split_specular {
         split = diffuse::split(&tables[0]);
         &split[..]
+    } else if tables.len() == 2 {
+        // the mixture reaches 90° on both tables' rim models
+        split = [diffuse::extend(&tables[0]), diffuse::extend(&tables[1])];
+        &split[..]
     } else {
         tables
     };
@@ -296,9 +304,14 @@ fn check_inputs(stack: &ImageStack, mask: &Mask, tables: &[Table], opts: &Option
         ));
     }
     if (tables.len() == 2 || opts.split_specular) && opts.method != Method::Refined {
+        let what = if opts.split_specular {
+            "the diffuse/specular split"
+        } else {
+            "two tables"
+        };
         return Err(Error::invalid(
-            format!("method {:?} with two tables", opts.method),
-            "mixtures of two materials need Method::Refined",
+            format!("method {:?} with {what}", opts.method),
+            "a two-part mixture (two materials, or diffuse + specular) needs Method::Refined",
         ));
     }
     if let Method::InverseDistance { neighbours } = opts.method {

@@ -12,6 +12,8 @@ use crate::error::{Error, Result};
 use crate::image::ImageStack;
 use crate::sphere::Circle;
 
+use super::denoise::{self, Denoise};
+
 /// Options of [`Table::build`].
 #[derive(Clone, Debug)]
 pub struct BuildOptions {
@@ -22,7 +24,8 @@ pub struct BuildOptions {
     /// Free-text name of the sphere's material, stored in the table (e.g. "red plastic").
     pub material: String,
     /// Standard deviation (pixels) of a Gaussian blur of the sphere images against
-    /// noise; `Some(0.0)` = none. A blur of σ biases the tuples by about σ²/2 · ΔI, so
+    /// noise, or the base width of the normal-space fit ([`BuildOptions::denoise`]);
+    /// `Some(0.0)` = none. A blur of σ biases the tuples by about σ²/2 · ΔI, so
     /// it pays only on noisy spheres. `None` (default) chooses it from the noise
     /// estimated on the sphere ([`estimate_noise`]): 150 × noise / typical sample ×
     /// min(1, √(16 / K)) pixels (typical = median of the samples above 3 × noise), at
@@ -34,6 +37,11 @@ pub struct BuildOptions {
     /// 0.258° → 0.07°, against 0.111 / 0.072 / 0.115 / 0.176 / 0.270° with fixed blurs
     /// of 0.3 / 0.5 / 0.7 / 1.0 / 1.4 px).
     pub smooth: Option<f64>,
+    /// How the noise is removed, with the width above ([`Denoise`]): by a blur of the
+    /// images, or by a local quadratic fit over the normal sphere of a width chosen by
+    /// cross-validation (`lut::denoise`); default [`Denoise::Auto`]: the fit when the
+    /// width is at least 1 px (noisy spheres under few lights), else the blur.
+    pub denoise: Denoise,
 }
 
 impl Default for BuildOptions {
@@ -42,6 +50,7 @@ impl Default for BuildOptions {
             rim: 2.0,
             material: String::new(),
             smooth: None,
+            denoise: Denoise::default(),
         }
     }
 }
@@ -140,8 +149,29 @@ impl Table {
                     "use a blur between 0 and 10 px (about 1 px for noisy spheres)",
                 ));
             }
-            pad_window(&mut window, circle, opts.rim);
-            blur(&mut window.stack, smooth);
+            let mode = match opts.denoise {
+                Denoise::Auto if smooth >= denoise::FIT_FROM_PX => {
+                    Denoise::NormalSpace { width: None }
+                }
+                Denoise::Auto => Denoise::ImageBlur,
+                other => other,
+            };
+            match mode {
+                Denoise::ImageBlur | Denoise::Auto => {
+                    pad_window(&mut window, circle, opts.rim);
+                    blur(&mut window.stack, smooth);
+                }
+                Denoise::NormalSpace { width } => {
+                    let w = match width {
+                        Some(f) => f * smooth,
+                        None => {
+                            let f = &denoise::WIDTH_FACTORS;
+                            denoise::choose_width(&window, circle, opts.rim, smooth, f).0
+                        }
+                    };
+                    denoise::fit_in_normal_space(&mut window, circle, opts.rim, w)
+                }
+            }
         }
         let mut table = Table::from_parts(
             stack.names.clone(),
@@ -411,6 +441,13 @@ fn pad_window(window: &mut Window, circle: &Circle, rim: f64) {
             ws.data.copy_within(src..src + k, dst);
         }
     }
+}
+
+/// The image blur as [`Table::build`] applies it (padding, then blur), for comparisons.
+#[cfg(test)]
+pub(crate) fn blur_for_tests(window: &mut Window, circle: &Circle, rim: f64, sigma: f64) {
+    pad_window(window, circle, rim);
+    blur(&mut window.stack, sigma);
 }
 
 /// Separable Gaussian blur of standard deviation `sigma` pixels (edges clamped).

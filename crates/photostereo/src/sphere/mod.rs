@@ -42,6 +42,12 @@
 //!    staircase silhouette and no blur) the circle of step 3 is kept: mid-level
 //!    crossings are unbiased there.
 //!
+//! **Cross-check from the lit arcs** ([`litarc::fit`]): each image's rim where that
+//! image lights it, located by the blurred step's outer tail alone (nothing inside the
+//! rim is modelled). Within 0.1 px on renders; on DiLiGenT's ball it agrees with the
+//! rim model's centre within 0.03 px and lies 0.3 px inside its radius — both outside
+//! the circle of the dataset's true normals (tests `sphere_truth`).
+//!
 //! **A mask only says where to search.** With [`DetectOptions::mask`] (the sphere
 //! folder's `mask.png` in `calibrate` and `run --sphere` alike, or `--mask`) steps 2–6
 //! look only inside it widened by 3 px (a silhouette mask would otherwise hide the
@@ -67,6 +73,7 @@
 mod contrast;
 mod edges;
 pub mod fit;
+pub mod litarc;
 mod overlay;
 mod rim;
 

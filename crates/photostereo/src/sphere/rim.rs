@@ -508,7 +508,7 @@ fn normal_pdf(z: f64) -> f64 {
 }
 
 /// Standard normal CDF through erfc (Numerical Recipes' Chebyshev fit, |ε| < 1.2e-7).
-fn normal_cdf(z: f64) -> f64 {
+pub(crate) fn normal_cdf(z: f64) -> f64 {
     let x = -z / std::f64::consts::SQRT_2;
     let t = 1.0 / (1.0 + 0.5 * x.abs());
     let y = t
@@ -527,7 +527,7 @@ fn normal_cdf(z: f64) -> f64 {
 }
 
 /// Golden-section minimum of `f` on [a, b] after `iters` steps.
-fn golden(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64, iters: usize) -> f64 {
+pub(crate) fn golden(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64, iters: usize) -> f64 {
     let g = 0.5 * (5f64.sqrt() - 1.0);
     let mut x1 = b - g * (b - a);
     let mut x2 = a + g * (b - a);
