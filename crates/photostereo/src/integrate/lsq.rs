@@ -14,7 +14,7 @@
 //! makes it positive definite without changing the edge residuals: the optimum simply
 //! puts that pixel at 0.
 //!
-//! The system is solved by conjugate gradients preconditioned with a multigrid V-cycle
+//! The system is solved by conjugate gradients preconditioned with a multigrid cycle
 //! ([`super::multigrid`], O(N), relative residual [`TOL`]). Should that not converge
 //! within [`MAX_ITER`] iterations (not seen on any mask or weight map we tried; a
 //! safety net for extreme weight contrasts), the same matrix is factorised by `faer`'s
