@@ -315,8 +315,8 @@ fn mitsuba_textured_plastic_split() {
 /// `target_roughplastic_tex`, material `roughplastic_tex`, of `render_shared.py`, whose
 /// `CASES` table does not list it: add the line
 /// `'target_roughplastic_tex': ('blob', 'roughplastic_tex', 2, 'roughplastic')` and render
-/// `--cases target_roughplastic_tex`). Read from `$PHOTOSTEREO_TEXTURED_PLASTIC`, else
-/// `../shared/data/target_roughplastic_tex`; skipped with a note when neither is there.
+/// `--cases target_roughplastic_tex`). Read from `$PHOTOSTEREO_TEXTURED_PLASTIC`, else the
+/// copy in `tests/data/mitsuba_textured_plastic` (see its README).
 /// Looked up in the shared plastic sphere's table (true circle), normalised and split.
 #[test]
 fn mitsuba_rendered_textured_plastic() {
@@ -326,7 +326,10 @@ fn mitsuba_rendered_textured_plastic() {
     };
     let dir = std::env::var_os("PHOTOSTEREO_TEXTURED_PLASTIC")
         .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| shared_data::root().join("data/target_roughplastic_tex"));
+        .unwrap_or_else(|| {
+            std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/data/mitsuba_textured_plastic")
+        });
     if !dir.is_dir() {
         let why = format!(
             "no textured plastic render at {} (see the test's docs to render it)",

@@ -593,6 +593,30 @@ impl System {
         }
     }
 
+    /// The system of [`System::new`] from weights already on the padded grid (f32,
+    /// zero on the border and at cells without unknown) and the non-zero masses as
+    /// (padded index, mass).
+    pub fn from_padded(
+        w: usize,
+        h: usize,
+        east: Vec<f32>,
+        south: Vec<f32>,
+        pins: Vec<(usize, f64)>,
+    ) -> Self {
+        let mut m = vec![0.0f32; east.len()];
+        let pins = pins
+            .into_iter()
+            .map(|(i, v)| {
+                m[i] = v as f32;
+                (i, v as f32 as f64)
+            })
+            .collect();
+        System {
+            hierarchy: Hierarchy::new(Level::new(w, h, east, south, m)),
+            pins,
+        }
+    }
+
     fn fine(&self) -> &Level {
         &self.hierarchy.levels[0]
     }
@@ -649,23 +673,40 @@ impl System {
     /// values at cells without unknown are set to 0).
     pub fn solve(&self, b: &[f64], z: &mut [f64], tol: f64, max_iter: usize) -> Solved {
         let fine = self.fine();
-        let (s, n) = (fine.stride(), fine.len());
-        let b = self.pad(b);
+        let s = fine.stride();
         let mut x = self.pad(z);
-        let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let mut r = vec![0.0; n];
-        self.apply_dot(&x, &mut r);
-        r.iter_mut().zip(&b).for_each(|(ri, bi)| *ri = bi - *ri);
-        let mut rnorm = r.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let mut out = Solved::default();
-        if bnorm > 0.0 && rnorm > tol * bnorm {
-            out.iterations = self.cg(&mut x, &mut r, &mut rnorm, tol * bnorm, max_iter);
-        }
-        out.relative_residual = if bnorm > 0.0 { rnorm / bnorm } else { 0.0 };
+        let out = self.solve_padded(self.pad(b), &mut x, true, tol, max_iter);
         for row in 0..fine.h {
             z[row * fine.w..(row + 1) * fine.w]
                 .copy_from_slice(&x[(row + 1) * s + 1..(row + 1) * s + 1 + fine.w]);
         }
+        out
+    }
+
+    /// [`System::solve`] on the padded grid (index (r + 1)·(w + 2) + c + 1): `b` (0 at
+    /// cells without unknown) is taken over as the residual's storage; `x` is the
+    /// guess if `warm`, otherwise all zeros.
+    pub fn solve_padded(
+        &self,
+        b: Vec<f64>,
+        x: &mut [f64],
+        warm: bool,
+        tol: f64,
+        max_iter: usize,
+    ) -> Solved {
+        let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let mut r = b;
+        if warm {
+            let mut ax = vec![0.0; r.len()];
+            self.apply_dot(x, &mut ax);
+            r.iter_mut().zip(&ax).for_each(|(ri, a)| *ri -= a);
+        }
+        let mut rnorm = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let mut out = Solved::default();
+        if bnorm > 0.0 && rnorm > tol * bnorm {
+            out.iterations = self.cg(x, &mut r, &mut rnorm, tol * bnorm, max_iter);
+        }
+        out.relative_residual = if bnorm > 0.0 { rnorm / bnorm } else { 0.0 };
         out
     }
 
