@@ -3,7 +3,7 @@
 use crate::Global;
 use anyhow::Context;
 use photostereo::io;
-use photostereo::lut::{BuildOptions, Table};
+use photostereo::lut::{BuildOptions, Denoise, Table};
 use photostereo::sphere::{self, Circle, DetectOptions};
 use std::path::PathBuf;
 
@@ -43,6 +43,11 @@ pub struct Args {
     /// the noise measured on the sphere (none on clean images).
     #[arg(long, value_name = "PX")]
     smooth: Option<f64>,
+    /// How the sphere's noise is removed: `normal` = a local quadratic fit over the
+    /// normal sphere (width chosen by cross-validation, 1–4 × the blur's), `image` = the
+    /// Gaussian blur of the images; default: the fit when the blur would be ≥ 1 px.
+    #[arg(long, value_name = "HOW", value_parser = ["normal", "image"])]
+    denoise: Option<String>,
     /// Output table file.
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
@@ -89,7 +94,11 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         rim: args.rim,
         material: args.material.clone(),
         smooth: args.smooth,
-        ..BuildOptions::default()
+        denoise: match args.denoise.as_deref() {
+            Some("normal") => Denoise::NormalSpace { width: None },
+            Some(_) => Denoise::ImageBlur,
+            None => Denoise::Auto,
+        },
     };
     let table = Table::build(&data.stack, &c, &opts)
         .with_context(|| format!("building the lookup table from {}", args.dir.display()))?;

@@ -4,7 +4,8 @@
 //!
 //! `cargo bench -p photostereo --bench lut` prints the rate of one whole-image lookup
 //! (Mpx/s over the mask pixels) and the CPU time it took (the machine may be shared),
-//! then times it with criterion. `LUT_ONCE=1` stops after the first figure.
+//! then times it with criterion. `LUT_ONCE=1` stops after the first figure; `LUT_REPEAT=n`
+//! runs it n more times, prints the CPU time per run and stops (for a profiler).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use photostereo::lut::{self, BuildOptions, Options, Table};
@@ -59,6 +60,24 @@ fn lookup(c: &mut Criterion) {
         2.0 * px / cpu / 1e6
     );
     println!("  {:?}", out.stats);
+    // `LUT_REPEAT=n` runs the lookup n more times (for a profiler), then stops
+    if let Some(n) = std::env::var("LUT_REPEAT")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        let mut cpu = f64::INFINITY;
+        for _ in 0..n {
+            let cpu0 = cpu_seconds();
+            let out = lut::solve(&target, &mask, &tables, &opts, &NoProgress).expect("solve");
+            cpu = cpu.min(cpu_seconds() - cpu0);
+            std::hint::black_box(out);
+        }
+        println!(
+            "  {n} more runs: least CPU time {cpu:.3} s per run = {:.3} µs/px",
+            cpu / px * 1e6
+        );
+        return;
+    }
     if std::env::var("LUT_ONCE").is_ok() {
         return;
     }

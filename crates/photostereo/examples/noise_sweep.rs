@@ -10,9 +10,12 @@
 //! cargo run --release -p photostereo --example noise_sweep -- pair \
 //!     ../shared/data/calib_diffuse ../shared/data/target_diffuse 0.01
 //! ```
+//!
+//! `NOISE_SWEEP_DENOISE=image` (or `normal`) builds the tables with the image blur (or
+//! the normal-space fit) instead of the default rule, for before/after comparisons.
 
 use photostereo::interreflect::plot::{LinePlot, Series};
-use photostereo::lut::{self, BuildOptions, Method, Table};
+use photostereo::lut::{self, BuildOptions, Denoise, Method, Table};
 use photostereo::progress::NoProgress;
 use photostereo::sphere::{self, Circle, DetectOptions};
 use photostereo::synth::{self, Material, SceneOptions, Shape, ShapeKind};
@@ -45,7 +48,16 @@ fn run(case: &Case) -> anyhow::Result<Result3> {
         ..DetectOptions::default()
     };
     let det = sphere::detect(&case.sphere, &detect)?;
-    let table = Table::build(&case.sphere, &det.circle, &BuildOptions::default())?;
+    let denoise = match std::env::var("NOISE_SWEEP_DENOISE").as_deref() {
+        Ok("image") => Denoise::ImageBlur,
+        Ok("normal") => Denoise::NormalSpace { width: None },
+        _ => Denoise::Auto,
+    };
+    let build = BuildOptions {
+        denoise,
+        ..BuildOptions::default()
+    };
+    let table = Table::build(&case.sphere, &det.circle, &build)?;
     let t0 = Instant::now();
     let out = lut::solve(
         &case.target,

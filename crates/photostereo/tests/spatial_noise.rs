@@ -178,7 +178,8 @@ fn angular_standard_error_is_the_error_of_an_efficient_estimator() {
 fn spatial_stage_halves_the_noise_of_plastic_and_keeps_clean_renders() {
     let noisy = render(ShapeKind::Blob, Material::shiny_plastic(), 0.01, 0.01);
     let (e0, e1, _, sp) = lookup_and_spatial(&noisy);
-    // measured: 0.95° → 0.43°
+    // measured: 0.83° → 0.32° (table denoised in normal space; with the image blur
+    // 0.86° → 0.34°)
     assert!(e1 < 0.6 * e0 && e1 < 0.6, "{e0} → {e1}");
     assert!(sp.stats.decided_by_neighbours > 0);
     let clean = render(ShapeKind::Blob, Material::shiny_plastic(), 0.0, 0.0);
@@ -193,7 +194,8 @@ fn spatial_stage_fills_the_dark_pixels_of_rough_metal() {
     let case = render(ShapeKind::Blob, Material::metal(), 0.01, 0.01);
     let (e0, e1, out, sp) = lookup_and_spatial(&case);
     println!("rough metal, 1% noise: lookup {e0:.2}°, spatial stage {e1:.2}°");
-    // measured: 9.23° → 1.98° (4 re-linearisation passes); the target is < 4°
+    // measured: 9.11° → 1.90° (4 re-linearisation passes; table denoised in normal
+    // space, with the image blur 9.23° → 2.74°); the target is < 4°
     assert!(e1 < 0.4 * e0 && e1 < 4.0, "{e0} → {e1}");
     // the pixels decided by their neighbours are the ones the lookup got wrong, and the
     // confidence afterwards says so
@@ -241,7 +243,7 @@ fn spatial_stage_keeps_a_crease() {
     };
     let (b0, b1) = (band(&e_out), band(&e_sp));
     println!("crease band: lookup {b0:.3}°, spatial {b1:.3}° (whole mask {e0:.3}° → {e1:.3}°)");
-    // measured: band 0.92° → 0.36°, whole 0.78° → 0.26°
+    // measured: band 0.93° → 0.35°, whole 0.78° → 0.25°
     assert!(b1 <= b0, "{b0} → {b1}");
     assert!(e1 < 0.7 * e0);
 }

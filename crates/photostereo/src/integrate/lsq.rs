@@ -14,7 +14,7 @@
 //! makes it positive definite without changing the edge residuals: the optimum simply
 //! puts that pixel at 0.
 //!
-//! The system is solved by conjugate gradients preconditioned with a multigrid V-cycle
+//! The system is solved by conjugate gradients preconditioned with a multigrid cycle
 //! ([`super::multigrid`], O(N), relative residual [`TOL`]). Should that not converge
 //! within [`MAX_ITER`] iterations (not seen on any mask or weight map we tried; a
 //! safety net for extreme weight contrasts), the same matrix is factorised by `faer`'s
@@ -202,6 +202,91 @@ impl Assembled {
     }
 }
 
+/// The normal equations of the masked problem directly on the padded grid of
+/// [`System`] (stride w + 2; f32 weights, f64 right-hand side) and the pins.
+struct Padded {
+    east: Vec<f32>,
+    south: Vec<f32>,
+    rhs: Vec<f64>,
+    pins: Vec<(usize, f64)>,
+}
+
+impl Padded {
+    fn assemble(p: &[f32], q: &[f32], mask: &Mask, weights: Option<&GrayImage>) -> Self {
+        let (w, h) = (mask.width, mask.height);
+        let s = w + 2;
+        let n = s * (h + 2);
+        let wt = pixel_weights(weights, mask);
+        let prior = weights.is_some();
+        let (mut east, mut south, mut rhs) = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0; n]);
+        for r in 0..h {
+            for c in 0..w {
+                let (i, k) = (r * w + c, (r + 1) * s + c + 1);
+                if !mask.data[i] {
+                    continue;
+                }
+                if c + 1 < w && mask.data[i + 1] {
+                    let g = 0.5 * (p[i] as f64 + p[i + 1] as f64);
+                    let (t, g) = with_prior(wt[i].min(wt[i + 1]), g, prior);
+                    east[k] = t as f32;
+                    rhs[k] -= t * g;
+                    rhs[k + 1] += t * g;
+                }
+                if r + 1 < h && mask.data[i + w] {
+                    let g = -0.5 * (q[i] as f64 + q[i + w] as f64);
+                    let (t, g) = with_prior(wt[i].min(wt[i + w]), g, prior);
+                    south[k] = t as f32;
+                    rhs[k] -= t * g;
+                    rhs[k + s] += t * g;
+                }
+            }
+        }
+        Padded {
+            east,
+            south,
+            rhs,
+            pins: Vec::new(),
+        }
+    }
+
+    /// Pin the first pixel of every part as [`Assembled::pin`] does.
+    fn pin(&mut self, comps: &Components, w: usize) {
+        let s = w + 2;
+        let mut pinned = vec![false; comps.count];
+        for (i, &l) in comps.labels.iter().enumerate() {
+            if l == u32::MAX || pinned[l as usize] {
+                continue;
+            }
+            pinned[l as usize] = true;
+            let k = (i / w + 1) * s + i % w + 1;
+            let (e, so) = (&self.east, &self.south);
+            let d = [e[k], e[k - 1], so[k], so[k - s]]
+                .iter()
+                .map(|&v| v as f64)
+                .sum::<f64>();
+            self.pins.push((k, if d > 0.0 { d } else { 1.0 }));
+        }
+    }
+
+    /// The same problem on the unpadded grid (for the Cholesky fallback).
+    fn unpadded(&self, w: usize, h: usize) -> Assembled {
+        let s = w + 2;
+        let mut a = Assembled::new(w, h);
+        for r in 0..h {
+            for c in 0..w {
+                let (i, k) = (r * w + c, (r + 1) * s + c + 1);
+                a.east[i] = self.east[k] as f64;
+                a.south[i] = self.south[k] as f64;
+                a.rhs[i] = self.rhs[k];
+            }
+        }
+        for &(k, m) in &self.pins {
+            a.mass[(k / s - 1) * w + k % s - 1] = m;
+        }
+        a
+    }
+}
+
 /// Solve the masked problem; returns depth on the whole grid (0 outside the mask) and
 /// the CG iterations.
 pub(crate) fn integrate(
@@ -213,33 +298,39 @@ pub(crate) fn integrate(
     progress: &dyn Progress,
 ) -> Result<(Vec<f32>, usize)> {
     let (w, h) = (mask.width, mask.height);
+    let s = w + 2;
     progress.start("lsq: assemble, solve", 2);
-    let wt = pixel_weights(weights, mask);
-    let prior = weights.is_some();
-    let mut sys = Assembled::new(w, h);
-    for r in 0..h {
-        for c in 0..w {
-            let i = r * w + c;
-            if !mask.data[i] {
-                continue;
-            }
-            if c + 1 < w && mask.data[i + 1] {
-                let g = 0.5 * (p[i] as f64 + p[i + 1] as f64);
-                let (t, g) = with_prior(wt[i].min(wt[i + 1]), g, prior);
-                sys.add_edge(i, true, t, g);
-            }
-            if r + 1 < h && mask.data[i + w] {
-                let g = -0.5 * (q[i] as f64 + q[i + w] as f64);
-                let (t, g) = with_prior(wt[i].min(wt[i + w]), g, prior);
-                sys.add_edge(i, false, t, g);
-            }
-        }
-    }
-    sys.pin(comps);
+    let mut sys = Padded::assemble(p, q, mask, weights);
+    sys.pin(comps, w);
     progress.advance(1);
-    let mut z = vec![0.0f64; w * h];
-    let iterations = sys.solve(&mut z, TOL, mask)?;
+    let mut x = vec![0.0f64; sys.rhs.len()];
+    let Padded {
+        east,
+        south,
+        rhs,
+        pins,
+    } = sys;
+    let solver = System::from_padded(w, h, east, south, pins);
+    let out = solver.solve_padded(rhs, &mut x, false, TOL, MAX_ITER);
+    let (z, iterations) = if out.relative_residual <= TOL * 10.0 {
+        let mut z = vec![0.0f32; w * h];
+        for r in 0..h {
+            let row = &x[(r + 1) * s + 1..(r + 1) * s + 1 + w];
+            z[r * w..(r + 1) * w]
+                .iter_mut()
+                .zip(row)
+                .for_each(|(o, &v)| *o = v as f32);
+        }
+        (z, out.iterations)
+    } else {
+        // CG did not converge (not seen; see the module documentation): assemble again
+        // for the exact solver.
+        let mut again = Padded::assemble(p, q, mask, weights);
+        again.pin(comps, w);
+        let exact = again.unpadded(w, h).cholesky(mask)?;
+        (exact.iter().map(|&v| v as f32).collect(), 0)
+    };
     progress.advance(1);
     progress.finish();
-    Ok((z.iter().map(|&v| v as f32).collect(), iterations))
+    Ok((z, iterations))
 }

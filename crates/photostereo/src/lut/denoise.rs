@@ -262,7 +262,7 @@ fn cross_validation(window: &Window, geo: &Geometry, width: f64, step: usize) ->
 }
 
 /// The kernel width (pixels) among `base` × `factors` with the lowest cross-validation
-/// score ([`cross_validation`], on every 2nd row and column), and its score.
+/// score ([`cross_validation`], on every 4th row and column), and its score.
 pub(crate) fn choose_width(
     window: &Window,
     circle: &Circle,
@@ -275,7 +275,7 @@ pub(crate) fn choose_width(
         .iter()
         .map(|f| {
             let width = f * base;
-            (width, cross_validation(window, &geo, width, 2))
+            (width, cross_validation(window, &geo, width, 4))
         })
         .fold((base, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
 }

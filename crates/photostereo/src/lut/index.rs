@@ -14,6 +14,16 @@ use rayon::prelude::*;
 /// Largest number of candidates one query returns.
 pub const MAX_CANDIDATES: usize = 16;
 const LEAF: usize = 8;
+/// Stored width of a projected point (the largest `d`).
+const PAD: usize = 8;
+
+/// A projected query zero-padded to [`PAD`] values.
+#[inline]
+fn padded(q: &[f32]) -> [f32; PAD] {
+    let mut out = [0.0; PAD];
+    out[..q.len()].copy_from_slice(q);
+    out
+}
 
 /// PCA projection + KD-tree over a set of K-dimensional points.
 #[derive(Clone, Debug)]
@@ -23,7 +33,8 @@ pub struct Index {
     mean: Vec<f32>,
     /// Principal axes, transposed: K rows of 8 (the d axes' components, zero-padded).
     axes: Vec<f32>,
-    /// Projected points in tree order, `d` per point.
+    /// Projected points in tree order, [`PAD`] per point (zeros beyond `d`: the
+    /// distances run on fixed-width blocks that the compiler vectorises).
     coords: Vec<f32>,
     /// Entry id of each point in tree order.
     ids: Vec<u32>,
@@ -36,6 +47,18 @@ pub struct Index {
 enum Node {
     Leaf { start: u32, end: u32 },
     Split { dim: u16, value: f32, right: u32 },
+}
+
+/// State of the branch and bound of [`Index::least`].
+struct Bound<R, C> {
+    best: f32,
+    id: u32,
+    /// Squared projected search radius, `reach(best)`.
+    r2: f32,
+    /// Leaves still allowed.
+    leaves: usize,
+    reach: R,
+    cost: C,
 }
 
 /// The best candidates of a query, nearest first.
@@ -110,10 +133,11 @@ impl Index {
             });
         let mut nodes = Vec::new();
         build_node(&mut ids, &proj, d, &mut nodes);
-        let mut coords = Vec::with_capacity(ids.len() * d);
+        let mut coords = vec![0.0; ids.len() * PAD];
         let mut slot = vec![u32::MAX; n];
         for (pos, &i) in ids.iter().enumerate() {
-            coords.extend_from_slice(&proj[i as usize * d..(i as usize + 1) * d]);
+            coords[pos * PAD..pos * PAD + d]
+                .copy_from_slice(&proj[i as usize * d..(i as usize + 1) * d]);
             slot[i as usize] = pos as u32;
         }
         Index {
@@ -152,6 +176,7 @@ impl Index {
     /// The `m` indexed points nearest to the projected query `q`; `seeds` are entry ids
     /// tried first (they only speed the search up).
     pub fn nearest(&self, q: &[f32], m: usize, seeds: &[u32]) -> Candidates {
+        let q = &padded(q);
         let mut best = Candidates::new(m);
         for &s in seeds {
             if let Some(&pos) = self.slot.get(s as usize) {
@@ -166,11 +191,120 @@ impl Index {
         best
     }
 
+    /// The indexed point nearest to the projected query `q` among those `accept` takes,
+    /// as (squared distance, entry id); (∞, `u32::MAX`) when it takes none. Exact: the
+    /// points refused are skipped, not counted as neighbours.
+    pub fn nearest_where(&self, q: &[f32], accept: impl Fn(u32) -> bool) -> (f32, u32) {
+        let q = &padded(q);
+        let mut best = (f32::INFINITY, u32::MAX);
+        if !self.nodes.is_empty() {
+            self.search_where(0, q, &accept, &mut best);
+        }
+        best
+    }
+
+    fn search_where(
+        &self,
+        node: usize,
+        q: &[f32; PAD],
+        accept: &impl Fn(u32) -> bool,
+        best: &mut (f32, u32),
+    ) {
+        match self.nodes[node] {
+            Node::Leaf { start, end } => {
+                for pos in start as usize..end as usize {
+                    let dist = self.dist_at(pos, q);
+                    if dist < best.0 && accept(self.ids[pos]) {
+                        *best = (dist, self.ids[pos]);
+                    }
+                }
+            }
+            Node::Split { dim, value, right } => {
+                let diff = q[dim as usize] - value;
+                let (near, far) = if diff < 0.0 {
+                    (node + 1, right as usize)
+                } else {
+                    (right as usize, node + 1)
+                };
+                self.search_where(near, q, accept, best);
+                if diff * diff < best.0 {
+                    self.search_where(far, q, accept, best);
+                }
+            }
+        }
+    }
+
+    /// Branch and bound for the indexed entry of least full cost below `best`: `cost(id)`
+    /// is the caller's cost of entry `id`, and `reach(b)` the squared projected distance
+    /// from `q` beyond which no entry can cost less than b (from the caller's lower bound
+    /// of the cost by the projected distance). Returns the best entry found as (cost, id),
+    /// id `u32::MAX` when none costs less than `best`, or `None` when the search would
+    /// visit more than `budget` leaves (then nothing is known).
+    pub fn least(
+        &self,
+        q: &[f32],
+        best: f32,
+        reach: impl Fn(f32) -> f32,
+        cost: impl FnMut(u32) -> f32,
+        budget: usize,
+    ) -> Option<(f32, u32)> {
+        let q = &padded(q);
+        let mut b = Bound {
+            best,
+            id: u32::MAX,
+            r2: reach(best),
+            leaves: budget,
+            reach,
+            cost,
+        };
+        if self.nodes.is_empty() || self.search_least(0, q, &mut b) {
+            Some((b.best, b.id))
+        } else {
+            None
+        }
+    }
+
+    /// [`Index::least`] below `node`; false when the budget ran out.
+    fn search_least<R, C>(&self, node: usize, q: &[f32; PAD], b: &mut Bound<R, C>) -> bool
+    where
+        R: Fn(f32) -> f32,
+        C: FnMut(u32) -> f32,
+    {
+        match self.nodes[node] {
+            Node::Leaf { start, end } => {
+                if b.leaves == 0 {
+                    return false;
+                }
+                b.leaves -= 1;
+                for pos in start as usize..end as usize {
+                    if self.dist_at(pos, q) < b.r2 {
+                        let id = self.ids[pos];
+                        let c = (b.cost)(id);
+                        if c < b.best {
+                            (b.best, b.id, b.r2) = (c, id, (b.reach)(c));
+                        }
+                    }
+                }
+                true
+            }
+            Node::Split { dim, value, right } => {
+                let diff = q[dim as usize] - value;
+                let (near, far) = if diff < 0.0 {
+                    (node + 1, right as usize)
+                } else {
+                    (right as usize, node + 1)
+                };
+                self.search_least(near, q, b)
+                    && (diff * diff >= b.r2 || self.search_least(far, q, b))
+            }
+        }
+    }
+
     /// Projected coordinates of entry `id` (`None` when it is not indexed).
     pub fn point(&self, id: u32) -> Option<&[f32]> {
         match self.slot.get(id as usize) {
             Some(&pos) if pos != u32::MAX => {
-                Some(&self.coords[pos as usize * self.d..(pos as usize + 1) * self.d])
+                Some(&self.coords[pos as usize * PAD..pos as usize * PAD + self.d])
             }
             _ => None,
         }
@@ -181,18 +315,22 @@ impl Index {
     #[inline]
     pub fn distance(&self, q: &[f32], id: u32) -> f32 {
         match self.slot.get(id as usize) {
-            Some(&pos) if pos != u32::MAX => self.dist_at(pos as usize, q),
+            Some(&pos) if pos != u32::MAX => self.dist_at(pos as usize, &padded(q)),
             _ => f32::INFINITY,
         }
     }
 
     #[inline]
-    fn dist_at(&self, pos: usize, q: &[f32]) -> f32 {
-        let p = &self.coords[pos * self.d..(pos + 1) * self.d];
-        p.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum()
+    fn dist_at(&self, pos: usize, q: &[f32; PAD]) -> f32 {
+        let p = &self.coords[pos * PAD..(pos + 1) * PAD];
+        let mut acc = [0.0f32; PAD];
+        for ((a, x), y) in acc.iter_mut().zip(p).zip(q) {
+            *a = (x - y) * (x - y);
+        }
+        (acc[0] + acc[4]) + (acc[1] + acc[5]) + ((acc[2] + acc[6]) + (acc[3] + acc[7]))
     }
 
-    fn search(&self, node: usize, q: &[f32], best: &mut Candidates) {
+    fn search(&self, node: usize, q: &[f32; PAD], best: &mut Candidates) {
         match self.nodes[node] {
             Node::Leaf { start, end } => {
                 for pos in start as usize..end as usize {
@@ -503,6 +641,29 @@ mod tests {
                 .collect();
             all.sort_by(|a, b| a.0.total_cmp(&b.0));
             assert_eq!(got.len, 3);
+            // the nearest point with an odd id, against brute force
+            let (d, id) = idx.nearest_where(&q, |e| e % 2 == 1);
+            let want = all.iter().find(|(_, e)| e % 2 == 1).unwrap();
+            assert_eq!(id % 2, 1);
+            // branch and bound on the full distance (projected distance ≤ full: exact)
+            let full = |e: u32| {
+                let p = &pts[e as usize * k..(e as usize + 1) * k];
+                p.iter()
+                    .zip(&query)
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum::<f32>()
+            };
+            let (c, e) = idx
+                .least(&q, f32::INFINITY, |b| b, full, usize::MAX)
+                .unwrap();
+            assert_eq!(e, all[0].1);
+            assert!((c - all[0].0).abs() < 1e-5);
+            let (_, none) = idx
+                .least(&q, all[0].0 * 0.99, |b| b, full, usize::MAX)
+                .unwrap();
+            assert_eq!(none, u32::MAX);
+            assert!(idx.least(&q, f32::INFINITY, |b| b, full, 1).is_none());
+            assert!((d - want.0).abs() < 1e-3 * (1.0 + want.0));
             for (c, want) in all.iter().take(3).enumerate() {
                 assert!((got.dist[c] - want.0).abs() < 1e-3 * (1.0 + want.0));
             }

@@ -25,10 +25,11 @@ const WARM_FLOOR: f32 = 0.003;
 /// Grid distance (pixels) from an entry beyond which other entries count as lying
 /// outside its basin, for the entries' isolation radii (see `certified`).
 const ISOLATION_BASIN: f64 = 3.0;
-/// Neighbours searched for an entry's isolation radius.
-const ISOLATION_M: usize = 12;
 /// Bits of an isolation radius not computed yet (a NaN that `isolation_of` never stores).
 const UNSET: u32 = u32::MAX;
+/// Leaves the branch and bound of an uncertified shortcut may visit before the pixel
+/// goes through the plain tree search instead.
+const BOUND_LEAVES: usize = 48;
 /// A fit within this many grid pixels of the table's edge is refitted on the rim model.
 const RIM_TRIGGER: f64 = 1.0;
 
@@ -224,9 +225,9 @@ impl<'a> Solver<'a> {
 
     /// The isolation radius of entry `e` at an even grid point (even row and column):
     /// the projected distance to the nearest entry more than [`ISOLATION_BASIN`] px away
-    /// on the grid, or to the last of its [`ISOLATION_M`] nearest when all of them are
-    /// closer (a lower bound). Computed on first use and cached: only the entries that
-    /// certify some pixel's fit are ever searched (racing workers store the same value).
+    /// on the grid (an exact nearest-neighbour search that skips the entries within it).
+    /// Computed on first use and cached: only the entries that certify some pixel's fit
+    /// are ever searched (racing workers store the same value).
     fn isolation_of(&self, index: &Index, e: u32) -> f32 {
         let slot = &self.isolation[e as usize];
         let bits = slot.load(Ordering::Relaxed);
@@ -237,17 +238,12 @@ impl<'a> Solver<'a> {
         let rho = match index.point(e) {
             None => 0.0,
             Some(p) => {
-                let cands = index.nearest(p, ISOLATION_M, &[e]);
-                let far = (0..cands.len).find(|&i| {
-                    let (x, y) = self.entry_grid(cands.ids[i]);
+                let far = |id: u32| {
+                    let (x, y) = self.entry_grid(id);
                     (x - gx).powi(2) + (y - gy).powi(2) > ISOLATION_BASIN * ISOLATION_BASIN
-                });
-                match far {
-                    Some(i) => cands.dist[i].max(0.0).sqrt(),
-                    // all indexed entries are within the basin
-                    None if cands.len < ISOLATION_M => f32::INFINITY,
-                    None => cands.dist[cands.len - 1].max(0.0).sqrt(),
-                }
+                };
+                // infinite when every indexed entry is within the basin
+                index.nearest_where(p, far).0.max(0.0).sqrt()
             }
         };
         slot.store(rho.to_bits(), Ordering::Relaxed);
@@ -326,12 +322,14 @@ impl<'a> Solver<'a> {
     }
 
     /// Coherence shortcut under the global check (module docs, step 1): Gauss–Newton
-    /// from the previous pixel's solution extrapolated by its step, then the tree's
-    /// candidates for this pixel re-ranked on the full cost. The shortcut is kept only
-    /// when it fits at least as well as the best candidate and that candidate lies
-    /// within [`SAME_BASIN`] of it; otherwise the refinement from the best candidate
-    /// runs and the better of the two fits is kept. Every pixel therefore fits at least
-    /// as well as its own tree search, whatever its neighbours did.
+    /// from the previous pixel's solution extrapolated by its step, kept with the
+    /// certificate, or when a branch and bound over the index finds no table entry that
+    /// fits better. Otherwise (or when that search runs over its budget) the tree's
+    /// candidates for this pixel are re-ranked on the full cost: the shortcut is kept
+    /// when it fits at least as well as the best candidate and that candidate lies within
+    /// [`SAME_BASIN`] of it; otherwise the refinement from the best entry found runs and
+    /// the better of the two fits is kept. Every pixel therefore fits at least as well as
+    /// its own tree search, whatever its neighbours did.
     fn checked_fit(&self, index: &Index, wk: &mut Work) -> Fit {
         let warm = wk.s.warm.map(|w| {
             let start = Fit {
@@ -346,7 +344,15 @@ impl<'a> Solver<'a> {
             wk.s.rel_ref = relative_to(wk.norm, f.cost);
             return f;
         }
-        let tree = self.tree_match(index, warm.as_ref(), false, wk);
+        // without the certificate, a bounded search for any entry that fits better
+        let tree = match warm.map(|f| (f, self.better_entry(index, &f, wk))) {
+            Some((f, Some(None))) => {
+                wk.s.rel_ref = relative_to(wk.norm, f.cost);
+                return f;
+            }
+            Some((_, Some(Some(e)))) => e,
+            _ => self.tree_match(index, warm.as_ref(), false, wk),
+        };
         if let Some(f) = warm {
             if f.cost <= tree.cost && same_basin(&f, &tree) {
                 wk.s.rel_ref = relative_to(wk.norm, f.cost);
@@ -387,6 +393,39 @@ impl<'a> Solver<'a> {
         }
         let d = index.distance(self.query(index, wk), e0).sqrt();
         self.lower_bound(wk.norm, self.isolation_of(index, e0) - d) >= f.cost
+    }
+
+    /// Branch and bound over the index for a table entry that fits the target better
+    /// than `f` (all lights; module docs, step 1): `Some(None)` when none does,
+    /// `Some(Some(fit))` at the best one, `None` when the search ran over its budget of
+    /// [`BOUND_LEAVES`] leaves.
+    fn better_entry(&self, index: &Index, f: &Fit, wk: &mut Work) -> Option<Option<Fit>> {
+        let k = self.model.k;
+        self.query(index, wk);
+        let (norm2, normalize) = (wk.norm * wk.norm, self.opts.normalize);
+        // the squared projected radius beyond which every entry costs at least b
+        let reach = |b: f32| {
+            if !normalize {
+                b
+            } else if b >= norm2 {
+                f32::INFINITY
+            } else {
+                2.0 * b / norm2
+            }
+        };
+        let (t, q) = (&wk.t[..k], &wk.q[..index.dims()]);
+        let tuples = &self.model.tables[0].entries.tuples;
+        let tuple = |e: u32| &tuples[e as usize * k..(e as usize + 1) * k];
+        let cost = |e: u32| self.model.fit_with(t, None, tuple(e), tuple(e)).1;
+        let (_, e) = index.least(q, f.cost, reach, cost, BOUND_LEAVES)?;
+        if e == u32::MAX {
+            return Some(None);
+        }
+        let (coef, cost) = self.model.fit_with(t, None, tuple(e), tuple(e));
+        let (gx, gy) = self.entry_grid(e);
+        wk.s.seeds.clear();
+        wk.s.seeds.push(e);
+        Some(Some(Fit { gx, gy, coef, cost }))
     }
 
     /// Lower bound of the cost of an entry at projected distance `d` (≤ 0: none) from
