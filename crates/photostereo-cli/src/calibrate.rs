@@ -103,11 +103,11 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     let table = Table::build(&data.stack, &c, &opts)
         .with_context(|| format!("building the lookup table from {}", args.dir.display()))?;
     say(format!(
-        "table: {} entries, K = {}, rim {} px, blur {:.2} px, material '{}'",
+        "table: {} entries, K = {}, rim {} px, {}, material '{}'",
         table.entries.len(),
         table.k,
         table.rim,
-        table.smooth,
+        denoising(&opts.denoise, table.smooth),
         table.material
     ));
     // everything is computed before the first file is written
@@ -146,3 +146,19 @@ fn check_given(stack: &photostereo::image::ImageStack, c: &Circle, say: &dyn Fn(
 /// DiLiGenT's ball on the circle of its true normals, 0.5–0.75 px inside the
 /// photographed rim: 3.0).
 const RIM_RATIO_WARN: f64 = 1.5;
+
+/// How the table was denoised, for the log line: the blur's σ, or the normal-space fit
+/// built on it (the same rule as `Table::build`'s [`Denoise::Auto`]).
+fn denoising(how: &Denoise, sigma_px: f64) -> String {
+    let fit = match how {
+        _ if sigma_px <= 0.0 => return "not denoised".into(),
+        Denoise::Auto => sigma_px >= photostereo::lut::denoise::FIT_FROM_PX,
+        Denoise::ImageBlur => false,
+        Denoise::NormalSpace { .. } => true,
+    };
+    if fit {
+        format!("denoised in normal space (base width {sigma_px:.2} px)")
+    } else {
+        format!("blur {sigma_px:.2} px")
+    }
+}

@@ -179,9 +179,9 @@ fn fitted_on(name: &str) -> &'static str {
         .unwrap_or("given")
 }
 
-/// calibrate(images, names, mask, circle, sphere_region, rim, material, smooth) -> Table
+/// calibrate(images, names, mask, circle, sphere_region, rim, material, smooth, denoise) -> Table
 #[pyfunction]
-#[pyo3(signature = (images, names, mask=None, circle=None, sphere_region=None, rim=2.0, material=String::new(), smooth=None))]
+#[pyo3(signature = (images, names, mask=None, circle=None, sphere_region=None, rim=2.0, material=String::new(), smooth=None, denoise=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate(
     py: Python<'_>,
@@ -193,7 +193,18 @@ pub fn calibrate(
     rim: f64,
     material: String,
     smooth: Option<f64>,
+    denoise: Option<String>,
 ) -> PyResult<Table> {
+    let denoise = match denoise.as_deref() {
+        None => lut::Denoise::Auto,
+        Some("normal") => lut::Denoise::NormalSpace { width: None },
+        Some("image") => lut::Denoise::ImageBlur,
+        Some(other) => {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "denoise={other:?}: give \"normal\" (a fit over the normal sphere), \"image\" (a blur of the sphere images) or None (the fit when the noise asks for a blur of at least 1 px)"
+            )))
+        }
+    };
     let stack = convert::stack_from(&images, names)?;
     let mask = mask.map(|m| convert::mask_from(&m));
     let opts = pipeline::Options {
@@ -206,7 +217,7 @@ pub fn calibrate(
             rim,
             material,
             smooth,
-            ..lut::BuildOptions::default()
+            denoise,
         },
         ..Default::default()
     };

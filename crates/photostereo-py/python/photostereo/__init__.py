@@ -121,6 +121,7 @@ def calibrate(
     rim: float = 2.0,
     material: str = "",
     smooth: Optional[float] = None,
+    denoise: Optional[str] = None,
 ) -> Table:
     """Find the calibration sphere and build its lookup table (``photostereo calibrate``).
 
@@ -136,6 +137,9 @@ def calibrate(
     material: free-text name stored in the table.
     smooth: Gaussian blur of the sphere images against noise (pixels); default: chosen
         from the noise measured on the sphere (none on clean images).
+    denoise: how a noisy sphere is denoised: "normal" (a local quadratic fit over the
+        normal sphere, width by cross-validation), "image" (the blur above); default
+        None: the fit when the blur would be at least 1 px (``calibrate --denoise``).
 
     Returns a :class:`Table` (``.circle`` = (cx, cy, r), ``.save(path)``,
     ``Table.load(path)``, ``.lookup(target)``).
@@ -152,6 +156,7 @@ def calibrate(
         rim=float(rim),
         material=material,
         smooth=smooth,
+        denoise=denoise,
     )
 
 
