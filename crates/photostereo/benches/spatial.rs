@@ -38,15 +38,7 @@ fn case(name: &'static str, size: usize, noise: f32) -> Case {
         ..SceneOptions::default()
     };
     let radius = 150.0;
-    let sphere_opts = SceneOptions {
-        width: 304,
-        height: 304,
-        shape: Shape::Sphere { radius },
-        ..opts.clone()
-    };
-    let peak = synth::peak_radiance(&opts)
-        .expect("peak")
-        .max(synth::peak_radiance(&sphere_opts).expect("peak"));
+    let peak = synth::peak_radiance_with_sphere(&opts, radius).expect("peak");
     opts.exposure = 0.98 / peak;
     opts.noise_sigma = noise;
     let scene = synth::render(&opts).expect("target");

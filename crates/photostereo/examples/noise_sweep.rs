@@ -273,13 +273,7 @@ fn synth_case(material: Material, noise: f32) -> anyhow::Result<Case> {
         ..SceneOptions::default()
     };
     // exposure so that the brightest sample of target and sphere is 0.98 (as `synth`)
-    let sphere_opts = SceneOptions {
-        width: 204,
-        height: 204,
-        shape: Shape::Sphere { radius: 100.0 },
-        ..opts.clone()
-    };
-    let p = synth::peak_radiance(&opts)?.max(synth::peak_radiance(&sphere_opts)?);
+    let p = synth::peak_radiance_with_sphere(&opts, 100.0)?;
     opts.exposure = if p > 0.98 { 0.98 / p } else { 1.0 };
     opts.noise_sigma = noise;
     opts.quantize_16bit = true;

@@ -25,15 +25,7 @@ fn render(shape: ShapeKind, material: Material, noise: f32, sphere_noise: f32) -
         seed: 5,
         ..SceneOptions::default()
     };
-    let sphere_opts = SceneOptions {
-        width: 204,
-        height: 204,
-        shape: Shape::Sphere { radius: 100.0 },
-        ..opts.clone()
-    };
-    let peak = synth::peak_radiance(&opts)
-        .unwrap()
-        .max(synth::peak_radiance(&sphere_opts).unwrap());
+    let peak = synth::peak_radiance_with_sphere(&opts, 100.0).unwrap();
     opts.exposure = 0.98 / peak;
     opts.noise_sigma = noise;
     let target = synth::render(&opts).unwrap();

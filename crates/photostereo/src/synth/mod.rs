@@ -158,6 +158,19 @@ pub fn render_with_progress(opts: &SceneOptions, progress: &dyn Progress) -> Res
 /// noise, quantisation, exposure and background as `opts` (no albedo texture), on a
 /// square image of side ⌈2·radius⌉ + 4.
 pub fn render_calibration_sphere(opts: &SceneOptions, radius: f64) -> Result<Scene> {
+    render(&calibration_sphere_options(opts, radius)?)
+}
+
+/// [`peak_radiance`] over the target of `opts` and its calibration sphere of radius
+/// `radius` pixels (as [`render_calibration_sphere`] renders it): the brightest sample
+/// of both, so that one exposure keeps the highlights of both below full scale.
+pub fn peak_radiance_with_sphere(opts: &SceneOptions, radius: f64) -> Result<f32> {
+    let sphere = calibration_sphere_options(opts, radius)?;
+    Ok(peak_radiance(opts)?.max(peak_radiance(&sphere)?))
+}
+
+/// The scene of [`render_calibration_sphere`].
+fn calibration_sphere_options(opts: &SceneOptions, radius: f64) -> Result<SceneOptions> {
     if !(radius.is_finite() && radius > 0.0 && radius < 1e5) {
         return Err(Error::invalid(
             format!("calibration sphere radius {radius}"),
@@ -165,14 +178,13 @@ pub fn render_calibration_sphere(opts: &SceneOptions, radius: f64) -> Result<Sce
         ));
     }
     let side = (2.0 * radius).ceil() as usize + 4;
-    let sphere = SceneOptions {
+    Ok(SceneOptions {
         width: side,
         height: side,
         shape: Shape::Sphere { radius },
         albedo_texture: false,
         ..opts.clone()
-    };
-    render(&sphere)
+    })
 }
 
 /// The largest radiance of the scene before exposure and noise, ignoring cast shadows
