@@ -278,7 +278,8 @@ def integrate(
 
     Returns (H, W) float32 depth, NaN outside the mask: orthographic, in pixels, larger =
     closer; with a camera, the distance along the optical axis (positive, larger =
-    farther, up to scale: its geometric mean over each part is the focal length).
+    farther, up to scale: its geometric mean over the mask is the focal length). Separate
+    parts of the mask are placed with their occluding contours at one depth (CLI --parts).
 
     Raises ValueError (bad shapes, method, camera), FileNotFoundError (camera file).
     """
