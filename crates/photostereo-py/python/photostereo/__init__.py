@@ -139,7 +139,8 @@ def calibrate(
         from the noise measured on the sphere (none on clean images).
     denoise: how a noisy sphere is denoised: "normal" (a local quadratic fit over the
         normal sphere, width by cross-validation), "image" (the blur above); default
-        None: the fit when the blur would be at least 1 px (``calibrate --denoise``).
+        None (or "auto"): the fit when the blur would be at least 1 px
+        (``calibrate --denoise``).
 
     Returns a :class:`Table` (``.circle`` = (cx, cy, r), ``.save(path)``,
     ``Table.load(path)``, ``.lookup(target)``).
