@@ -443,11 +443,7 @@ fn perspective(
         let d = cam.ray(i / w, i % w);
         field.a_h[i].abs() / (d[0] * d[0] + d[1] * d[1] + 1.0).sqrt()
     };
-    let grad = |i: usize| (field.g_h[i], field.g_v[i]);
-    let cues = parts::Cues {
-        slant: &slant,
-        grad: &grad,
-    };
+    let cues = parts::Cues { slant: &slant };
     let placed = place_parts(opts.parts, &z, Some(&comps), mask, &cues);
     let (mut depth, parts) = center(z, Some(&comps), measured.depth_sum, w, h, placed, mask)?;
     let f = cam.fx as f32;
@@ -558,11 +554,7 @@ pub fn integrate_gradients_with_progress(
         let (a, b) = (p[i] as f64, q[i] as f64);
         1.0 / (1.0 + a * a + b * b).sqrt()
     };
-    let grad = |i: usize| (p[i] as f64, -q[i] as f64);
-    let cues = parts::Cues {
-        slant: &slant,
-        grad: &grad,
-    };
+    let cues = parts::Cues { slant: &slant };
     let placed = place_parts(opts.parts, &z, comps.as_ref(), mask, &cues);
     let (depth, parts) = center(z, comps.as_ref(), measured.depth_sum, w, h, placed, mask)?;
     Ok(Output {
