@@ -39,7 +39,9 @@
 //! outline pixels between each pair of parts that face each other across the background
 //! (found by a breadth-first search through the background from every outline pixel, an
 //! approximate Voronoi diagram, O(pixels)); along the tree, the two ends of each gap are
-//! put at the same depth. This holds where a thin connection of constant depth was cut
+//! put at the same depth. Parts of fewer than [`GAP_MIN_PIXELS`] pixels (specks) are
+//! left out of the search and the tree and get the median depth of the joined parts.
+//! This holds where a thin connection of constant depth was cut
 //! out of the mask (a stem of constant radius, a wire, a strip masked by a specular
 //! highlight); it fails where the gap is a true depth jump.
 //!
@@ -127,6 +129,9 @@ pub const MIN_TURN: f64 = 0.02;
 /// Pixels along the inward direction used to extrapolate to the contour (2: linear,
 /// 3: quadratic in s).
 const CONTOUR_POINTS: usize = 3;
+/// Fewest pixels of a part joined by [`Parts::Gap`] (smaller ones, specks, are placed at
+/// the median depth of the joined parts).
+pub const GAP_MIN_PIXELS: usize = 25;
 /// Fewest contour estimates for a part to be placed by its contour.
 pub const MIN_CONTOUR: usize = 5;
 
@@ -162,7 +167,11 @@ pub(crate) fn offsets(
             let levels = contour_levels(z, comps, mask, cues.slant);
             place_or_median(levels, &medians, &per_part)
         }
-        Parts::Gap => gap_offsets(z, comps, mask, &medians),
+        Parts::Gap => {
+            let usable: Vec<bool> = per_part.iter().map(|v| v.len() >= GAP_MIN_PIXELS).collect();
+            let levels = gap_levels(z, comps, mask, &medians, &usable);
+            place_or_median(levels, &medians, &per_part)
+        }
     }
 }
 
@@ -311,9 +320,18 @@ fn extrapolate_to_zero(pts: &[(f64, f64)]) -> f64 {
 }
 
 /// Offsets from the minimum spanning tree of the gaps between parts (module docs).
-fn gap_offsets(z: &[f32], comps: &Components, mask: &Mask, medians: &[f64]) -> Vec<f64> {
+/// Per part: the level (minus the offset) from the minimum spanning tree of the gaps
+/// between `usable` parts; `None` for the others.
+fn gap_levels(
+    z: &[f32],
+    comps: &Components,
+    mask: &Mask,
+    medians: &[f64],
+    usable: &[bool],
+) -> Vec<Option<f64>> {
     let k = comps.count;
-    let mut links: Vec<(f64, usize, usize)> = gap_links(comps, mask).into_values().collect();
+    let mut links: Vec<(f64, usize, usize)> =
+        gap_links(comps, mask, usable).into_values().collect();
     links.sort_by(|a, b| a.0.total_cmp(&b.0));
     // Kruskal: join parts across the shortest gaps first.
     let mut root: Vec<usize> = (0..k).collect();
@@ -339,7 +357,7 @@ fn gap_offsets(z: &[f32], comps: &Components, mask: &Mask, medians: &[f64]) -> V
     // Walk each tree from its first part; unlinked parts keep their median at 0.
     let mut off: Vec<Option<f64>> = vec![None; k];
     for start in 0..k {
-        if off[start].is_some() {
+        if off[start].is_some() || !usable[start] {
             continue;
         }
         off[start] = Some(-medians[start]);
@@ -354,17 +372,22 @@ fn gap_offsets(z: &[f32], comps: &Components, mask: &Mask, medians: &[f64]) -> V
             }
         }
     }
-    off.into_iter().map(|o| o.unwrap_or(0.0)).collect()
+    off.into_iter().map(|o| o.map(|o| -o)).collect()
 }
 
 /// For each pair of parts that meet across the background: the squared distance and the
 /// two outline pixels of their nearest pair found by a breadth-first search from all
-/// outline pixels through the background.
-fn gap_links(comps: &Components, mask: &Mask) -> HashMap<(u32, u32), (f64, usize, usize)> {
+/// outline pixels of the `usable` parts through the background (and the other parts).
+fn gap_links(
+    comps: &Components,
+    mask: &Mask,
+    usable: &[bool],
+) -> HashMap<(u32, u32), (f64, usize, usize)> {
     let (w, h) = (mask.width, mask.height);
     let mut src = vec![usize::MAX; w * h];
     let mut queue = VecDeque::new();
-    for i in (0..w * h).filter(|&i| mask.data[i]) {
+    let source = |i: usize| mask.data[i] && usable[comps.labels[i] as usize];
+    for i in (0..w * h).filter(|&i| source(i)) {
         src[i] = i;
         queue.push_back(i);
     }
@@ -382,10 +405,8 @@ fn gap_links(comps: &Components, mask: &Mask) -> HashMap<(u32, u32), (f64, usize
             let Some(j) = step(w, h, i, s) else { continue };
             let sj = src[j];
             if sj == usize::MAX {
-                if !mask.data[j] {
-                    src[j] = si;
-                    queue.push_back(j);
-                }
+                src[j] = si;
+                queue.push_back(j);
                 continue;
             }
             let (la, lb) = (comps.labels[si], comps.labels[sj]);
