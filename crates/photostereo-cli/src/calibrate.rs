@@ -45,9 +45,9 @@ pub struct Args {
     smooth: Option<f64>,
     /// How the sphere's noise is removed: `normal` = a local quadratic fit over the
     /// normal sphere (width chosen by cross-validation, 1–4 × the blur's), `image` = the
-    /// Gaussian blur of the images; default: the fit when the blur would be ≥ 1 px.
-    #[arg(long, value_name = "HOW", value_parser = ["normal", "image"])]
-    denoise: Option<String>,
+    /// Gaussian blur of the images, `auto` (default) = the fit when the blur would be ≥ 1 px.
+    #[arg(long, value_name = "HOW", value_parser = parse_denoise)]
+    denoise: Option<Denoise>,
     /// Output table file.
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
@@ -94,11 +94,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         rim: args.rim,
         material: args.material.clone(),
         smooth: args.smooth,
-        denoise: match args.denoise.as_deref() {
-            Some("normal") => Denoise::NormalSpace { width: None },
-            Some(_) => Denoise::ImageBlur,
-            None => Denoise::Auto,
-        },
+        denoise: args.denoise.unwrap_or_default(),
     };
     let table = Table::build(&data.stack, &c, &opts)
         .with_context(|| format!("building the lookup table from {}", args.dir.display()))?;
@@ -107,7 +103,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         table.entries.len(),
         table.k,
         table.rim,
-        denoising(&opts.denoise, table.smooth),
+        denoising(opts.denoise, table.smooth),
         table.material
     ));
     // everything is computed before the first file is written
@@ -149,16 +145,17 @@ const RIM_RATIO_WARN: f64 = 1.5;
 
 /// How the table was denoised, for the log line: the blur's σ, or the normal-space fit
 /// built on it (the same rule as `Table::build`'s [`Denoise::Auto`]).
-fn denoising(how: &Denoise, sigma_px: f64) -> String {
-    let fit = match how {
-        _ if sigma_px <= 0.0 => return "not denoised".into(),
-        Denoise::Auto => sigma_px >= photostereo::lut::denoise::FIT_FROM_PX,
-        Denoise::ImageBlur => false,
-        Denoise::NormalSpace { .. } => true,
-    };
-    if fit {
-        format!("denoised in normal space (base width {sigma_px:.2} px)")
-    } else {
-        format!("blur {sigma_px:.2} px")
+fn denoising(how: Denoise, sigma_px: f64) -> String {
+    match how.resolve(sigma_px) {
+        _ if sigma_px <= 0.0 => "not denoised".into(),
+        Denoise::NormalSpace { .. } => {
+            format!("denoised in normal space (base width {sigma_px:.2} px)")
+        }
+        _ => format!("blur {sigma_px:.2} px"),
     }
+}
+
+/// `--denoise`'s values, spelled as the library's [`Denoise`] parses them.
+fn parse_denoise(s: &str) -> Result<Denoise, String> {
+    s.parse().map_err(|e: photostereo::Error| e.to_string())
 }

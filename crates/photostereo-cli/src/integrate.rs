@@ -3,7 +3,7 @@
 use crate::progress::Bar;
 use crate::Global;
 use anyhow::Context;
-use photostereo::integrate::{choose_method, solve_with_progress, Camera, Method, Options};
+use photostereo::integrate::{choose_method, solve_with_progress, Camera, Method, Options, Parts};
 use photostereo::{io, mesh, Mask};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -23,7 +23,8 @@ disagreement), fc (Frankot-Chellappa, periodic), fc-reflect (FC on the mirrored 
 parts), bini (bilateral normal integration: keeps depth discontinuities, the mesh is cut there).
 With --camera K.txt or --focal F the integration is perspective (lsq or bini) and DEPTH.npy is the
 distance along the optical axis (positive, larger = farther, up to scale: the geometric mean
-over each part is the focal length in pixels).")]
+over the mask is the focal length in pixels). Separate parts of the mask are placed by --parts
+(default contour: their occluding contours at one depth, as a goblet's cup and foot).")]
 pub struct Args {
     /// Normal map: float32 .npy of shape (H, W, 3), camera frame (x right, y up, z to camera).
     pub normals: PathBuf,
@@ -58,6 +59,12 @@ pub struct Args {
     /// bini: sharpness k of the sigmoid weights (larger breaks the surface more easily).
     #[arg(long, default_value_t = 2.0)]
     pub bini_k: f32,
+    /// How separate parts of the mask are placed relative to each other: contour (their
+    /// occluding contours at one depth: bodies of revolution such as a goblet's cup and
+    /// foot), gap (equal depth across the narrowest gap), median (equal median depth) or
+    /// separate (each part centred on its own, as before).
+    #[arg(long, default_value = "contour")]
+    pub parts: String,
 }
 
 fn camera(args: &Args, width: usize, height: usize) -> anyhow::Result<Option<Camera>> {
@@ -98,6 +105,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         "--min-nz must be in [0, 1), got {}",
         args.min_nz
     );
+    let parts = Parts::from_name(&args.parts)?;
     let normals = io::read_normals_npy(&args.normals)?;
     let mask = match &args.mask {
         Some(p) => io::read_mask_any(p)?,
@@ -131,6 +139,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         weights,
         min_nz: args.min_nz,
         camera,
+        parts,
     };
     let start = Instant::now();
     let out = solve_with_progress(&normals, &mask, &opts, &Bar::new(global.quiet))

@@ -268,6 +268,7 @@ pub fn integrate<'py>(
         weights: weights.map(|w| convert::gray_from(&w)),
         min_nz,
         camera,
+        parts: integ::Parts::default(),
     };
     let out = crate::compute(py, move || integ::solve(&n, &mask, &opts))?;
     Ok(convert::gray_to_py(py, out.depth))

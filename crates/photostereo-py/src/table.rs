@@ -197,13 +197,9 @@ pub fn calibrate(
 ) -> PyResult<Table> {
     let denoise = match denoise.as_deref() {
         None => lut::Denoise::Auto,
-        Some("normal") => lut::Denoise::NormalSpace { width: None },
-        Some("image") => lut::Denoise::ImageBlur,
-        Some(other) => {
-            return Err(pyo3::exceptions::PyValueError::new_err(format!(
-                "denoise={other:?}: give \"normal\" (a fit over the normal sphere), \"image\" (a blur of the sphere images) or None (the fit when the noise asks for a blur of at least 1 px)"
-            )))
-        }
+        Some(how) => how.parse().map_err(|e: photostereo::Error| {
+            pyo3::exceptions::PyValueError::new_err(format!("denoise={how:?}: {e}"))
+        })?,
     };
     let stack = convert::stack_from(&images, names)?;
     let mask = mask.map(|m| convert::mask_from(&m));

@@ -4,60 +4,15 @@
 //! normals, fitted by least squares (pixel (r, c) centred at (c + 0.5, r + 0.5)).
 
 mod shared_data;
+mod sphere_common;
 
 use photostereo::io;
 use photostereo::sphere::{check_circle, detect, Circle, DetectOptions};
 use std::path::Path;
 
-/// Least-squares circle of the true normals: u = cx + R n_x, v = cy − R n_y.
+/// Least-squares circle of the true normals (all of them): u = cx + R n_x, v = cy − R n_y.
 fn truth_circle(dir: &Path) -> Circle {
-    let n = io::read_normals_npy(&dir.join("normal_gt.npy")).unwrap();
-    let mut a = [[0.0f64; 3]; 3];
-    let mut b = [0.0f64; 3];
-    for r in 0..n.height {
-        for c in 0..n.width {
-            let v = *n.get(r, c);
-            let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            if !(0.5..1.5).contains(&len) {
-                continue;
-            }
-            let (nx, ny) = (v[0] as f64, v[1] as f64);
-            // u = cx + R nx ; v = cy − R ny, unknowns (cx, cy, R)
-            for (row, rhs) in [
-                ([1.0, 0.0, nx], c as f64 + 0.5),
-                ([0.0, 1.0, -ny], r as f64 + 0.5),
-            ] {
-                for i in 0..3 {
-                    for j in 0..3 {
-                        a[i][j] += row[i] * row[j];
-                    }
-                    b[i] += row[i] * rhs;
-                }
-            }
-        }
-    }
-    let x = solve3(a, b);
-    Circle {
-        cx: x[0],
-        cy: x[1],
-        radius: x[2],
-    }
-}
-
-fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> [f64; 3] {
-    let det = |m: [[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let d = det(a);
-    std::array::from_fn(|k| {
-        let mut m = a;
-        for i in 0..3 {
-            m[i][k] = b[i];
-        }
-        det(m) / d
-    })
+    sphere_common::normals_circle(dir, -1.0).0
 }
 
 /// The rim model's residual with the rim held on `truth` over that with the rim free,

@@ -19,72 +19,12 @@
 //!   0.13 px from the truth's but say nothing firm about the radius (+1.45 px).
 
 mod shared_data;
+mod sphere_common;
 
 use photostereo::io;
+use photostereo::sphere::photometric::{self, PhotometricOptions};
 use photostereo::sphere::{detect, litarc, Circle, DetectOptions};
-use std::path::Path;
-
-/// Least-squares circle u = cx + R n_x, v = cy − R n_y over the pixels whose true
-/// normal has n_z ≥ `min_nz`; its RMS residual (px) and the pixel count.
-fn normals_circle(dir: &Path, min_nz: f64) -> (Circle, f64, usize) {
-    let n = io::read_normals_npy(&dir.join("normal_gt.npy")).unwrap();
-    let mut pts = Vec::new();
-    let (mut a, mut b) = ([[0.0f64; 3]; 3], [0.0f64; 3]);
-    for r in 0..n.height {
-        for c in 0..n.width {
-            let v = n.get(r, c).map(f64::from);
-            let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            if !(0.5..1.5).contains(&len) || v[2] / len < min_nz {
-                continue;
-            }
-            let (nx, ny) = (v[0] / len, v[1] / len);
-            let (u, w) = (c as f64 + 0.5, r as f64 + 0.5);
-            for (row, rhs) in [([1.0, 0.0, nx], u), ([0.0, 1.0, -ny], w)] {
-                for i in 0..3 {
-                    for j in 0..3 {
-                        a[i][j] += row[i] * row[j];
-                    }
-                    b[i] += row[i] * rhs;
-                }
-            }
-            pts.push((nx, ny, u, w));
-        }
-    }
-    let x = solve3(a, b);
-    let c = Circle {
-        cx: x[0],
-        cy: x[1],
-        radius: x[2],
-    };
-    let ss: f64 = pts
-        .iter()
-        .map(|&(nx, ny, u, w)| {
-            (u - c.cx - c.radius * nx).powi(2) + (w - c.cy + c.radius * ny).powi(2)
-        })
-        .sum();
-    (c, (ss / (2 * pts.len()) as f64).sqrt(), pts.len())
-}
-
-fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> [f64; 3] {
-    let det = |m: [[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let d = det(a);
-    std::array::from_fn(|k| {
-        let mut m = a;
-        for row in m.iter_mut().zip(b) {
-            row.0[k] = row.1;
-        }
-        det(m) / d
-    })
-}
-
-/// Centre distance and radius difference of `c` from `t` (px).
-fn errors(c: &Circle, t: &Circle) -> (f64, f64) {
-    ((c.cx - t.cx).hypot(c.cy - t.cy), c.radius - t.radius)
-}
+use sphere_common::{errors, normals_circle, solve3};
 
 /// The truth is a model: an exact orthographic sphere of radius 70.7500 px (fit
 /// residual 0.0000 px over the pixels with n_z ≥ 0.05; measured), the mask is exactly
@@ -283,5 +223,92 @@ fn diligent_ball_highlights_centre() {
     assert!(
         ec < 0.25 && (1.0..2.0).contains(&er),
         "centre {ec:.3}, radius {er:+.3}"
+    );
+}
+
+/// The circle from the sphere's shading (`sphere::photometric`): the circle whose
+/// normals make one isotropic reflectance, shared by all the calibrated lights, fit
+/// best; no edge enters. Renders (started from the circle found): measured centre
+/// < 0.001 px, radius +0.004 / +0.004 px (Lambertian / GGX plastic); the plastic blurred
+/// by σ 0.75 px and quantised to 8 bits: see the printout, bound 0.1 px.
+#[test]
+fn photometric_circle_on_renders_within_0_1_px() {
+    for case in ["calib_diffuse", "calib_roughplastic"] {
+        let Some(dir) = shared_data::path(
+            "photometric_circle_on_renders_within_0_1_px",
+            &format!("data/{case}"),
+        ) else {
+            return;
+        };
+        let truth = normals_circle(&dir, 0.05).0;
+        let data = io::load_dataset(&dir, &io::LoadOptions::default()).unwrap();
+        let lights = data.lights.unwrap().directions;
+        let mut stacks = vec![("as rendered", data.stack)];
+        if case == "calib_roughplastic" {
+            let degraded = sphere_common::degrade(&stacks[0].1, 0.75, true);
+            stacks.push(("blur σ 0.75 px, 8 bits", degraded));
+        }
+        for (what, stack) in &stacks {
+            let found = detect(stack, &DetectOptions::default()).unwrap().circle;
+            let f =
+                photometric::fit(stack, &lights, &found, &PhotometricOptions::default()).unwrap();
+            let (ec, er) = errors(&f.circle, &truth);
+            println!(
+                "{case}, {what}: photometric ({:.3}, {:.3}, r {:.3}) ± ({:.3}, {:.3}, {:.3}); centre {ec:.3}, radius {er:+.3} px from the truth; rms {:.2e} (start {:.2e}) over {} samples",
+                f.circle.cx, f.circle.cy, f.circle.radius, f.sd_px[0], f.sd_px[1], f.sd_px[2],
+                f.rms, f.rms_at_start, f.samples
+            );
+            assert!(
+                ec < 0.1 && er.abs() < 0.1,
+                "{case}, {what}: centre {ec:.3}, radius {er:+.3}"
+            );
+        }
+    }
+}
+
+/// The ball's shading through its calibrated lights. Measured: (112.460, 112.328,
+/// r 72.176), centre 0.098 px from the true normals' circle — within issue 10's 0.15 px —
+/// but radius +1.43 px, farther out than the silhouette (+0.74 px) and close to the
+/// highlights' +1.45 px; rms 7.8e-3 against 9.3e-3 on the circle found, formal σ
+/// ≤ 0.002 px (the model's misfit, not noise, dominates). With the same lights, the
+/// ball's shading is that of a sphere 2% larger than the true normals' circle: the
+/// truth's radius is not in the photographs' photometry either.
+#[test]
+fn diligent_ball_photometric_circle() {
+    let Some(dir) = shared_data::path(
+        "diligent_ball_photometric_circle",
+        "data/real/diligent_ball",
+    ) else {
+        return;
+    };
+    let truth = normals_circle(&dir, 0.05).0;
+    let data = io::load_dataset(&dir, &io::LoadOptions::default()).unwrap();
+    let lights = data.lights.unwrap().directions;
+    let found = detect(&data.stack, &DetectOptions::default())
+        .unwrap()
+        .circle;
+    let f = photometric::fit(&data.stack, &lights, &found, &PhotometricOptions::default()).unwrap();
+    let (ec, er) = errors(&f.circle, &truth);
+    let on_truth = photometric::residual(
+        &data.stack,
+        &lights,
+        &found,
+        &truth,
+        &PhotometricOptions::default(),
+    )
+    .unwrap();
+    let rms_truth = (on_truth / f.samples as f64).sqrt();
+    println!(
+        "ball: photometric ({:.3}, {:.3}, r {:.3}) ± ({:.3}, {:.3}, {:.3}); centre {ec:.3}, radius {er:+.3} px from the truth; rms {:.2e} (circle found {:.2e}, true circle {rms_truth:.2e}) over {} samples",
+        f.circle.cx, f.circle.cy, f.circle.radius, f.sd_px[0], f.sd_px[1], f.sd_px[2],
+        f.rms, f.rms_at_start, f.samples
+    );
+    assert!(
+        ec < 0.2 && (1.1..1.8).contains(&er),
+        "centre {ec:.3}, radius {er:+.3}"
+    );
+    assert!(
+        rms_truth > f.rms_at_start,
+        "the true circle fits the shading worse than the circle found"
     );
 }

@@ -139,7 +139,8 @@ def calibrate(
         from the noise measured on the sphere (none on clean images).
     denoise: how a noisy sphere is denoised: "normal" (a local quadratic fit over the
         normal sphere, width by cross-validation), "image" (the blur above); default
-        None: the fit when the blur would be at least 1 px (``calibrate --denoise``).
+        None (or "auto"): the fit when the blur would be at least 1 px
+        (``calibrate --denoise``).
 
     Returns a :class:`Table` (``.circle`` = (cx, cy, r), ``.save(path)``,
     ``Table.load(path)``, ``.lookup(target)``).
@@ -278,7 +279,8 @@ def integrate(
 
     Returns (H, W) float32 depth, NaN outside the mask: orthographic, in pixels, larger =
     closer; with a camera, the distance along the optical axis (positive, larger =
-    farther, up to scale: its geometric mean over each part is the focal length).
+    farther, up to scale: its geometric mean over the mask is the focal length). Separate
+    parts of the mask are placed with their occluding contours at one depth (CLI --parts).
 
     Raises ValueError (bad shapes, method, camera), FileNotFoundError (camera file).
     """

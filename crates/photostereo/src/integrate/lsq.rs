@@ -216,7 +216,9 @@ impl Padded {
         let (w, h) = (mask.width, mask.height);
         let s = w + 2;
         let n = s * (h + 2);
-        let wt = pixel_weights(weights, mask);
+        // Pixel weights only with a map (1 everywhere otherwise).
+        let wt = weights.map(|_| pixel_weights(weights, mask));
+        let pair = |i: usize, j: usize| wt.as_ref().map_or(1.0, |v| v[i].min(v[j]));
         let prior = weights.is_some();
         let (mut east, mut south, mut rhs) = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0; n]);
         for r in 0..h {
@@ -227,14 +229,14 @@ impl Padded {
                 }
                 if c + 1 < w && mask.data[i + 1] {
                     let g = 0.5 * (p[i] as f64 + p[i + 1] as f64);
-                    let (t, g) = with_prior(wt[i].min(wt[i + 1]), g, prior);
+                    let (t, g) = with_prior(pair(i, i + 1), g, prior);
                     east[k] = t as f32;
                     rhs[k] -= t * g;
                     rhs[k + 1] += t * g;
                 }
                 if r + 1 < h && mask.data[i + w] {
                     let g = -0.5 * (q[i] as f64 + q[i + w] as f64);
-                    let (t, g) = with_prior(wt[i].min(wt[i + w]), g, prior);
+                    let (t, g) = with_prior(pair(i, i + w), g, prior);
                     south[k] = t as f32;
                     rhs[k] -= t * g;
                     rhs[k + s] += t * g;

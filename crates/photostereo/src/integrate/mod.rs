@@ -31,9 +31,14 @@
 //! # Offsets
 //!
 //! Depth from gradients is known up to one constant per connected part of the mask
-//! (4-connectivity). **Every method returns a depth whose mean over each connected
-//! part of the mask is 0**: relative heights of separate parts cannot be measured
-//! from normals, so none is invented. Outside the mask the depth is NaN.
+//! (4-connectivity; with a camera, one scale of the distance per part). The relative
+//! heights of separate parts cannot be measured from normals: [`Options::parts`] says
+//! which assumption places them ([`Parts`], module `parts`; default: their occluding
+//! contours at a common depth, right for bodies of revolution about an axis parallel
+//! to the image plane such as a goblet's cup and foot). The depth then has mean 0 over
+//! the whole mask; with [`Parts::Separate`] (the behaviour before the option) every
+//! part has mean 0 on its own. A mask of one part is not affected. Outside the mask the
+//! depth is NaN.
 //!
 //! # Bad normals
 //!
@@ -58,6 +63,7 @@ mod fft2;
 mod fourier;
 mod lsq;
 mod multigrid;
+mod parts;
 pub mod path;
 mod support;
 mod trust;
@@ -68,6 +74,7 @@ use crate::progress::{NoProgress, Progress};
 
 pub use camera::Camera;
 pub use fft2::fft_floor;
+pub use parts::Parts;
 pub use support::{label_components, Components};
 pub use trust::{trust_weights, TrustOptions};
 
@@ -191,6 +198,9 @@ pub struct Options {
     /// [`Method::Bilateral`], from normals). The depth is then the distance along the
     /// optical axis (see [`Output::depth`]). `None` (default): orthographic.
     pub camera: Option<Camera>,
+    /// How separate parts of the mask are placed relative to each other (default
+    /// [`Parts::Contour`]: their occluding contours at a common depth; module `parts`).
+    pub parts: Parts,
 }
 
 impl Default for Options {
@@ -200,6 +210,7 @@ impl Default for Options {
             weights: None,
             min_nz: 0.05,
             camera: None,
+            parts: Parts::default(),
         }
     }
 }
@@ -240,11 +251,12 @@ pub struct SolverInfo {
 /// Result of an integration.
 #[derive(Clone, Debug)]
 pub struct Output {
-    /// Orthographic: depth in pixel units (larger = closer), mean 0 over each connected
-    /// part of the mask. With a camera: the distance along the optical axis (positive,
-    /// larger = farther), known up to one scale per part, each part scaled so that its
-    /// geometric-mean distance is f_x (then the mesh's lateral units are about pixels).
-    /// NaN outside the mask.
+    /// Orthographic: depth in pixel units (larger = closer), mean 0 over the mask (over
+    /// each connected part with [`Parts::Separate`]). With a camera: the distance along
+    /// the optical axis (positive, larger = farther), known up to scale, scaled so that
+    /// its geometric mean over the mask (each part's, with [`Parts::Separate`]) is f_x
+    /// (then the mesh's lateral units are about pixels). Separate parts are placed by
+    /// [`Options::parts`]. NaN outside the mask.
     pub depth: DepthMap,
     /// The method that was used.
     pub method: Method,
@@ -253,7 +265,8 @@ pub struct Output {
     /// [`Method::Path`] only: RMS over the mask of the difference between the
     /// row-first and the column-first path (pixel units).
     pub path_disagreement: Option<f32>,
-    /// Number of 4-connected parts of the mask (each has its own offset).
+    /// Number of 4-connected parts of the mask (each has its own offset, placed by
+    /// [`Options::parts`]).
     pub components: usize,
     /// Solver diagnostics.
     pub info: SolverInfo,
@@ -426,7 +439,13 @@ fn perspective(
     let p: Vec<f32> = field.g_h.iter().map(|&g| g as f32).collect();
     let q: Vec<f32> = field.g_v.iter().map(|&g| -g as f32).collect();
     let measured = support::edge_residual(&z, &p, &q, mask);
-    let (mut depth, parts) = center(z, Some(&comps), measured.depth_sum, w, h)?;
+    let slant = |i: usize| {
+        let d = cam.ray(i / w, i % w);
+        field.a_h[i].abs() / (d[0] * d[0] + d[1] * d[1] + 1.0).sqrt()
+    };
+    let cues = parts::Cues { slant: &slant };
+    let placed = place_parts(opts.parts, &z, Some(&comps), mask, &cues);
+    let (mut depth, parts) = center(z, Some(&comps), measured.depth_sum, w, h, placed, mask)?;
     let f = cam.fx as f32;
     depth.data.iter_mut().for_each(|v| *v = f * (*v / f).exp());
     Ok(Output {
@@ -531,7 +550,13 @@ pub fn integrate_gradients_with_progress(
     };
     let measured = support::edge_residual(&z, &p, &q, mask);
     info.residual = measured.rms as f32;
-    let (depth, parts) = center(z, comps.as_ref(), measured.depth_sum, w, h)?;
+    let slant = |i: usize| {
+        let (a, b) = (p[i] as f64, q[i] as f64);
+        1.0 / (1.0 + a * a + b * b).sqrt()
+    };
+    let cues = parts::Cues { slant: &slant };
+    let placed = place_parts(opts.parts, &z, comps.as_ref(), mask, &cues);
+    let (depth, parts) = center(z, comps.as_ref(), measured.depth_sum, w, h, placed, mask)?;
     Ok(Output {
         depth,
         method: opts.method,
@@ -544,14 +569,30 @@ pub fn integrate_gradients_with_progress(
     })
 }
 
-/// The solved depth with every connected part shifted to mean 0 (NaN outside the mask),
-/// and the number of parts; an error if the solver produced non-finite values.
+/// Per-part offsets of `rule` when the mask has several parts and the rule is not
+/// [`Parts::Separate`] (`None`: centre each part on its own).
+fn place_parts(
+    rule: Parts,
+    z: &[f32],
+    comps: Option<&Components>,
+    mask: &Mask,
+    cues: &parts::Cues,
+) -> Option<Vec<f64>> {
+    let comps = comps.filter(|c| c.count > 1 && rule != Parts::Separate)?;
+    support::all_finite_par(z).then(|| parts::offsets(rule, z, comps, mask, cues))
+}
+
+/// The solved depth with every connected part shifted to mean 0, or with the parts
+/// shifted by `placed` and the whole mask to mean 0 (NaN outside the mask), and the
+/// number of parts; an error if the solver produced non-finite values.
 fn center(
     z: Vec<f32>,
     comps: Option<&Components>,
     depth_sum: f64,
     w: usize,
     h: usize,
+    placed: Option<Vec<f64>>,
+    mask: &Mask,
 ) -> Result<(DepthMap, usize)> {
     let non_finite = || {
         Error::invalid(
@@ -563,6 +604,17 @@ fn center(
         Some(c) => {
             if !support::all_finite_par(&z) {
                 return Err(non_finite());
+            }
+            if let Some(off) = placed {
+                let data = parts::apply(&z, c, &off, mask);
+                return Ok((
+                    crate::image::Image {
+                        width: w,
+                        height: h,
+                        data,
+                    },
+                    c.count,
+                ));
             }
             Ok((support::center_components(&z, c, w, h), c.count))
         }

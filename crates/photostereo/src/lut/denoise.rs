@@ -77,6 +77,39 @@ pub enum Denoise {
     },
 }
 
+impl Denoise {
+    /// The denoising actually applied for a noise rule's blur width of `sigma_px`
+    /// pixels: [`Denoise::Auto`] becomes the normal-space fit from [`FIT_FROM_PX`] on
+    /// and the image blur below it; the other variants stay as they are. (Nothing is
+    /// denoised at all when `sigma_px` ≤ 0.)
+    pub fn resolve(self, sigma_px: f64) -> Denoise {
+        match self {
+            Denoise::Auto if sigma_px >= FIT_FROM_PX => Denoise::NormalSpace { width: None },
+            Denoise::Auto => Denoise::ImageBlur,
+            other => other,
+        }
+    }
+}
+
+impl std::str::FromStr for Denoise {
+    type Err = crate::Error;
+
+    /// `"normal"` (the fit over the normal sphere, width by cross-validation), `"image"`
+    /// (the blur of the sphere images) or `"auto"`, as the CLI's `--denoise` and
+    /// Python's `denoise=` spell them.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "auto" => Ok(Denoise::Auto),
+            "normal" => Ok(Denoise::NormalSpace { width: None }),
+            "image" => Ok(Denoise::ImageBlur),
+            other => Err(crate::Error::invalid(
+                format!("denoising {other:?}"),
+                "give \"normal\" (a fit over the normal sphere), \"image\" (a blur of the sphere images) or \"auto\" (the fit when the noise asks for a blur of at least 1 px)",
+            )),
+        }
+    }
+}
+
 /// Smallest blur width σ (pixels) at which [`Denoise::Auto`] fits in normal space.
 pub const FIT_FROM_PX: f64 = 1.0;
 
@@ -334,6 +367,24 @@ mod tests {
 
     const RADIUS: f64 = 50.0;
     const RIM: f64 = 2.0;
+
+    #[test]
+    fn auto_fits_from_one_pixel_and_names_parse() {
+        let fit = Denoise::NormalSpace { width: None };
+        assert_eq!(Denoise::Auto.resolve(FIT_FROM_PX), fit);
+        assert_eq!(Denoise::Auto.resolve(0.99), Denoise::ImageBlur);
+        assert_eq!(Denoise::ImageBlur.resolve(3.0), Denoise::ImageBlur);
+        let fixed = Denoise::NormalSpace { width: Some(2.0) };
+        assert_eq!(fixed.resolve(0.5), fixed);
+        assert_eq!("normal".parse::<Denoise>().unwrap(), fit);
+        assert_eq!("image".parse::<Denoise>().unwrap(), Denoise::ImageBlur);
+        assert_eq!("auto".parse::<Denoise>().unwrap(), Denoise::Auto);
+        let err = "median".parse::<Denoise>().unwrap_err().to_string();
+        assert!(
+            err.contains("\"median\"") && err.contains("normal"),
+            "{err}"
+        );
+    }
 
     /// A sphere of radius 50 px whose one image is f(n), and its circle.
     fn sphere_window(f: impl Fn([f64; 3]) -> f64) -> (Window, Circle) {

@@ -149,14 +149,7 @@ impl Table {
                     "use a blur between 0 and 10 px (about 1 px for noisy spheres)",
                 ));
             }
-            let mode = match opts.denoise {
-                Denoise::Auto if smooth >= denoise::FIT_FROM_PX => {
-                    Denoise::NormalSpace { width: None }
-                }
-                Denoise::Auto => Denoise::ImageBlur,
-                other => other,
-            };
-            match mode {
+            match opts.denoise.resolve(smooth) {
                 Denoise::ImageBlur | Denoise::Auto => {
                     pad_window(&mut window, circle, opts.rim);
                     blur(&mut window.stack, smooth);
