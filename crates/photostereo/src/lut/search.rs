@@ -62,6 +62,18 @@ fn same_basin(a: &Fit, b: &Fit) -> bool {
     (a.gx - b.gx).powi(2) + (a.gy - b.gy).powi(2) <= SAME_BASIN * SAME_BASIN
 }
 
+/// ‖t‖² of a tuple padded with zeros to a multiple of 8 (eight partial sums, which the
+/// compiler vectorises).
+fn norm2(t: &[f32]) -> f32 {
+    let mut acc = [0.0f32; 8];
+    for chunk in t.chunks_exact(8) {
+        for (a, v) in acc.iter_mut().zip(chunk) {
+            *a += v * v;
+        }
+    }
+    ((acc[0] + acc[4]) + (acc[2] + acc[6])) + ((acc[1] + acc[5]) + (acc[3] + acc[7]))
+}
+
 /// √cost / ‖t‖ from a precomputed ‖t‖.
 fn relative_to(norm: f32, cost: f32) -> f32 {
     if norm > 0.0 {
@@ -186,19 +198,22 @@ impl<'a> Solver<'a> {
                 tuple.iter_mut().for_each(|v| *v /= norm.max(1e-6));
             }
         }
-        let index = (!model.is_mix()).then(|| {
-            let dims = match opts.method {
-                Method::InverseDistance { .. } => k,
-                _ => opts.pca_dims,
-            };
-            Index::build(&ranked, k, &keep, dims)
-        });
-        let (coarse_pos, coarse_basis, coarse_step) = coarse_grid(&model);
+        let dims = match opts.method {
+            Method::InverseDistance { .. } => k,
+            _ => opts.pca_dims,
+        };
+        // the index on one worker, the coarse grid and the rim model on the other
+        let (index, ((coarse_pos, coarse_basis, coarse_step), rim)) = rayon::join(
+            || (!model.is_mix()).then(|| Index::build(&ranked, k, &keep, dims)),
+            || {
+                let rim = (!model.is_mix() && opts.method == Method::Refined)
+                    .then(|| Rim::fit(t0))
+                    .flatten();
+                (coarse_grid(&model), rim)
+            },
+        );
         let peaks = [t0.peak(), model.tables.get(1).map_or(0.0, |t| t.peak())];
         let single = (!model.is_mix()).then(|| Single::new(t0, opts.normalize));
-        let rim = (!model.is_mix() && opts.method == Method::Refined)
-            .then(|| Rim::fit(t0))
-            .flatten();
         let mut ones = vec![0.0; single::padded(k)];
         ones[..k].fill(1.0);
         let ws = &t0.window.stack;
@@ -274,7 +289,7 @@ impl<'a> Solver<'a> {
     /// pixel's candidates and `wk.s.warm` its solution.
     pub fn pixel(&self, wk: &mut Work) -> PixelOut {
         let k = self.model.k;
-        wk.norm = wk.t[..k].iter().map(|v| v * v).sum::<f32>().sqrt();
+        wk.norm = norm2(&wk.t).sqrt();
         wk.fresh = false;
         wk.projected = false;
         if let (Some(index), Method::InverseDistance { neighbours }) =
@@ -296,7 +311,7 @@ impl<'a> Solver<'a> {
         };
         self.update_warm(&fit, shadowed, wk);
         let fit = self.rim_fit(fit, wk);
-        let mut out = self.finish(&wk.t[..k], &wk.w[..k], fit, shadowed);
+        let mut out = self.finish(&wk.t[..k], &wk.w[..k], fit, shadowed, wk.norm);
         if self.model.is_mix() {
             let sigma = self
                 .model
@@ -391,8 +406,43 @@ impl<'a> Solver<'a> {
         if self.lower_bound(wk.norm, f32::INFINITY) < f.cost {
             return false;
         }
+        let rho = self.isolation_of(index, e0);
+        // the projection is orthogonal, so the full K-dimensional distance bounds the
+        // projected one from above: a cheaper test first (no projection of the query)
+        if self.lower_bound(wk.norm, rho - self.full_distance(wk, e0)) >= f.cost {
+            return true;
+        }
         let d = index.distance(self.query(index, wk), e0).sqrt();
-        self.lower_bound(wk.norm, self.isolation_of(index, e0) - d) >= f.cost
+        self.lower_bound(wk.norm, rho - d) >= f.cost
+    }
+
+    /// Distance in the index's full K-dimensional space (tuples normalised when
+    /// matching is) from the current pixel's tuple to entry `e`'s: ≥ the projected one.
+    fn full_distance(&self, wk: &Work, e: u32) -> f32 {
+        let k = self.model.k;
+        let t = &wk.t[..k];
+        let tuple = &self.model.tables[0].entries.tuples[e as usize * k..(e as usize + 1) * k];
+        let (st, se) = if self.opts.normalize {
+            let ne = tuple.iter().map(|v| v * v).sum::<f32>().sqrt();
+            (1.0 / wk.norm.max(1e-12), 1.0 / ne.max(1e-6))
+        } else {
+            (1.0, 1.0)
+        };
+        // eight partial sums, which the compiler vectorises
+        let mut acc = [0.0f32; 8];
+        let (tc, ec) = (t.chunks_exact(8), tuple.chunks_exact(8));
+        let tail = tc.remainder().iter().zip(ec.remainder());
+        for (a8, b8) in tc.zip(ec) {
+            for ((acc, a), b) in acc.iter_mut().zip(a8).zip(b8) {
+                *acc += (a * st - b * se) * (a * st - b * se);
+            }
+        }
+        let head =
+            ((acc[0] + acc[4]) + (acc[2] + acc[6])) + ((acc[1] + acc[5]) + (acc[3] + acc[7]));
+        let rest: f32 = tail
+            .map(|(a, b)| (a * st - b * se) * (a * st - b * se))
+            .sum();
+        (head + rest).sqrt()
     }
 
     /// Branch and bound over the index for a table entry that fits the target better
@@ -445,6 +495,12 @@ impl<'a> Solver<'a> {
     /// number of dropped lights (weights in `wk.w`).
     fn drop_shadowed(&self, mut fit: Fit, wk: &mut Work) -> (Fit, u16) {
         let k = self.model.k;
+        if let (Some(single), true) = (&self.single, wk.fresh) {
+            // the first round's test on the fast path's buffer: usually nothing to drop
+            if !single.any_dark_lit(&wk.t, fit.coef[0], self.level(&fit), &wk.b) {
+                return (fit, 0);
+            }
+        }
         let mut shadowed = 0u16;
         for _round in 0..3 {
             self.predict(&fit, wk);
@@ -772,15 +828,19 @@ impl<'a> Solver<'a> {
         let e = cands.ids[0];
         let (gx, gy) = self.entry_grid(e);
         let fit = self.model.eval(t, None, gx, gy, s);
-        let mut out = self.finish(t, &self.ones[..k], fit, 0);
+        let mut out = self.finish(t, &self.ones[..k], fit, 0, wk.norm);
         out.normal = normalize(acc);
         out
     }
 
-    /// Normal, residual and confidence of a final fit.
-    fn finish(&self, t: &[f32], w: &[f32], fit: Fit, shadowed: u16) -> PixelOut {
-        let used: f32 = w.iter().sum::<f32>().max(1.0);
-        let energy: f32 = t.iter().zip(w).map(|(t, w)| w * t * t).sum();
+    /// Normal, residual and confidence of a final fit; `norm` is ‖t‖ (the weights are all 1 when no light is `shadowed`).
+    fn finish(&self, t: &[f32], w: &[f32], fit: Fit, shadowed: u16, norm: f32) -> PixelOut {
+        let (used, energy) = if shadowed == 0 {
+            (t.len().max(1) as f32, norm * norm)
+        } else {
+            let energy: f32 = t.iter().zip(w).map(|(t, w)| w * t * t).sum();
+            (w.iter().sum::<f32>().max(1.0), energy)
+        };
         let rms_r = (fit.cost.max(0.0) / used).sqrt();
         let rms_t = (energy / used).sqrt();
         let level = self.level(&fit);
