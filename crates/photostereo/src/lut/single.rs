@@ -129,52 +129,72 @@ mod lanes {
     #[derive(Clone, Copy)]
     pub struct V4([f32; 4]);
 
-    // SAFETY (all `unsafe` blocks of this impl): SSE and SSE2 are part of the x86-64
-    // baseline, so the intrinsics are always available; loads and stores go through
-    // slices of exactly 4 values.
+    /// `impl Lanes` for a vector type over x86-64 intrinsics: its lane count, then the
+    /// intrinsics for zero, splat, unaligned load and store, add, sub and mul, then the
+    /// body of `sum`. Loads and stores go through slices of exactly N values.
     #[cfg(target_arch = "x86_64")]
-    impl Lanes for V4 {
-        const N: usize = 4;
-        #[inline(always)]
-        fn zero() -> V4 {
-            V4(unsafe { _mm_setzero_ps() })
-        }
-        #[inline(always)]
-        fn splat(x: f32) -> V4 {
-            V4(unsafe { _mm_set1_ps(x) })
-        }
-        #[inline(always)]
-        fn load(s: &[f32], at: usize) -> V4 {
-            let s = &s[at..at + 4];
-            V4(unsafe { _mm_loadu_ps(s.as_ptr()) })
-        }
-        #[inline(always)]
-        fn store(self, s: &mut [f32], at: usize) {
-            let s = &mut s[at..at + 4];
-            unsafe { _mm_storeu_ps(s.as_mut_ptr(), self.0) }
-        }
-        #[inline(always)]
-        fn add(self, o: V4) -> V4 {
-            V4(unsafe { _mm_add_ps(self.0, o.0) })
-        }
-        #[inline(always)]
-        fn sub(self, o: V4) -> V4 {
-            V4(unsafe { _mm_sub_ps(self.0, o.0) })
-        }
-        #[inline(always)]
-        fn mul(self, o: V4) -> V4 {
-            V4(unsafe { _mm_mul_ps(self.0, o.0) })
-        }
-        #[inline(always)]
-        fn sum(self) -> f32 {
-            unsafe {
-                let hi = _mm_movehl_ps(self.0, self.0);
-                let s2 = _mm_add_ps(self.0, hi);
-                let s1 = _mm_add_ss(s2, _mm_shuffle_ps::<1>(s2, s2));
-                _mm_cvtss_f32(s1)
+    macro_rules! intrinsic_lanes {
+        ($v:ident, $n:literal, $zero:ident, $splat:ident, $load:ident, $store:ident,
+         $add:ident, $sub:ident, $mul:ident, |$x:ident| $sum:block) => {
+            impl Lanes for $v {
+                const N: usize = $n;
+                #[inline(always)]
+                fn zero() -> $v {
+                    $v(unsafe { $zero() })
+                }
+                #[inline(always)]
+                fn splat(x: f32) -> $v {
+                    $v(unsafe { $splat(x) })
+                }
+                #[inline(always)]
+                fn load(s: &[f32], at: usize) -> $v {
+                    let s = &s[at..at + $n];
+                    $v(unsafe { $load(s.as_ptr()) })
+                }
+                #[inline(always)]
+                fn store(self, s: &mut [f32], at: usize) {
+                    let s = &mut s[at..at + $n];
+                    unsafe { $store(s.as_mut_ptr(), self.0) }
+                }
+                #[inline(always)]
+                fn add(self, o: $v) -> $v {
+                    $v(unsafe { $add(self.0, o.0) })
+                }
+                #[inline(always)]
+                fn sub(self, o: $v) -> $v {
+                    $v(unsafe { $sub(self.0, o.0) })
+                }
+                #[inline(always)]
+                fn mul(self, o: $v) -> $v {
+                    $v(unsafe { $mul(self.0, o.0) })
+                }
+                #[inline(always)]
+                fn sum(self) -> f32 {
+                    let $x = self.0;
+                    unsafe { $sum }
+                }
             }
-        }
+        };
     }
+
+    // SAFETY (all `unsafe` blocks of this impl): SSE and SSE2 are part of the x86-64
+    // baseline, so the intrinsics are always available.
+    #[cfg(target_arch = "x86_64")]
+    intrinsic_lanes!(
+        V4,
+        4,
+        _mm_setzero_ps,
+        _mm_set1_ps,
+        _mm_loadu_ps,
+        _mm_storeu_ps,
+        _mm_add_ps,
+        _mm_sub_ps,
+        _mm_mul_ps,
+        |x| {
+            let s2 = _mm_add_ps(x, _mm_movehl_ps(x, x));
+            _mm_cvtss_f32(_mm_add_ss(s2, _mm_shuffle_ps::<1>(s2, s2)))
+        }
+    );
 
     #[cfg(not(target_arch = "x86_64"))]
     impl Lanes for V4 {
@@ -223,52 +243,23 @@ mod lanes {
     // processor has AVX; `V8` is used only by `Single::refine_avx`, which
     // `Single::refine` calls only when `is_x86_feature_detected!("avx")` said so (the
     // methods are inlined into it, so the intrinsics are compiled with AVX enabled).
-    // Loads and stores go through slices of exactly 8 values.
     #[cfg(target_arch = "x86_64")]
-    impl Lanes for V8 {
-        const N: usize = 8;
-        #[inline(always)]
-        fn zero() -> V8 {
-            V8(unsafe { _mm256_setzero_ps() })
+    intrinsic_lanes!(
+        V8,
+        8,
+        _mm256_setzero_ps,
+        _mm256_set1_ps,
+        _mm256_loadu_ps,
+        _mm256_storeu_ps,
+        _mm256_add_ps,
+        _mm256_sub_ps,
+        _mm256_mul_ps,
+        |x| {
+            let s4 = _mm_add_ps(_mm256_castps256_ps128(x), _mm256_extractf128_ps::<1>(x));
+            let s2 = _mm_add_ps(s4, _mm_movehl_ps(s4, s4));
+            _mm_cvtss_f32(_mm_add_ss(s2, _mm_shuffle_ps::<1>(s2, s2)))
         }
-        #[inline(always)]
-        fn splat(x: f32) -> V8 {
-            V8(unsafe { _mm256_set1_ps(x) })
-        }
-        #[inline(always)]
-        fn load(s: &[f32], at: usize) -> V8 {
-            let s = &s[at..at + 8];
-            V8(unsafe { _mm256_loadu_ps(s.as_ptr()) })
-        }
-        #[inline(always)]
-        fn store(self, s: &mut [f32], at: usize) {
-            let s = &mut s[at..at + 8];
-            unsafe { _mm256_storeu_ps(s.as_mut_ptr(), self.0) }
-        }
-        #[inline(always)]
-        fn add(self, o: V8) -> V8 {
-            V8(unsafe { _mm256_add_ps(self.0, o.0) })
-        }
-        #[inline(always)]
-        fn sub(self, o: V8) -> V8 {
-            V8(unsafe { _mm256_sub_ps(self.0, o.0) })
-        }
-        #[inline(always)]
-        fn mul(self, o: V8) -> V8 {
-            V8(unsafe { _mm256_mul_ps(self.0, o.0) })
-        }
-        #[inline(always)]
-        fn sum(self) -> f32 {
-            unsafe {
-                let lo = _mm256_castps256_ps128(self.0);
-                let hi = _mm256_extractf128_ps::<1>(self.0);
-                let s4 = _mm_add_ps(lo, hi);
-                let s2 = _mm_add_ps(s4, _mm_movehl_ps(s4, s4));
-                let s1 = _mm_add_ss(s2, _mm_shuffle_ps::<1>(s2, s2));
-                _mm_cvtss_f32(s1)
-            }
-        }
-    }
+    );
 }
 
 use lanes::Lanes;
