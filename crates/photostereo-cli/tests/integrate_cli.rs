@@ -172,7 +172,7 @@ fn parts_places_two_spheres_by_their_contours() {
     let contour = two_spheres_error(&dir, "contour");
     let separate = two_spheres_error(&dir, "separate");
     println!("two spheres: contour {contour:.3} px, separate {separate:.3} px");
-    // Measured: contour 0.096 px, separate 1.646 px.
+    // Measured: contour 0.108 px (0.096 with the linear extrapolation), separate 1.646 px.
     assert!(contour < 0.25 && separate > 1.0, "{contour} {separate}");
     let bad = bin()
         .args(["integrate", "--parts", "nearest"])

@@ -163,7 +163,9 @@ fn render(trace: &dyn Fn(Ray) -> Hit, perspective: bool) -> Scene {
 
 /// MADE in mm after the median scale (perspective) or offset (orthographic).
 fn made(s: &Scene, est: &[f32]) -> f64 {
-    let idx: Vec<usize> = (0..W * H).filter(|&i| s.mask.data[i]).collect();
+    let idx: Vec<usize> = (0..W * H)
+        .filter(|&i| s.mask.data[i] && s.truth[i].is_finite())
+        .collect();
     let mut r: Vec<f64> = idx
         .iter()
         .map(|&i| match s.camera {
@@ -246,11 +248,13 @@ const GOBLET: [f64; 3] = [15.0, 5.0, 1500.0];
 #[test]
 fn goblet_contours_place_cup_and_foot() {
     // Measured (MADE mm; separate / median / contour / gap):
-    //   persp lsq  0.818 / 0.870 / 0.099 / 0.203   persp bini 0.816 / 0.887 / 0.060 / 0.236
-    //   ortho lsq  0.829 / 0.859 / 0.274 / 0.549   ortho bini 0.781 / 0.789 / 0.113 / 0.333
+    //   persp lsq  0.818 / 0.870 / 0.220 / 0.203   persp bini 0.816 / 0.887 / 0.224 / 0.236
+    //   ortho lsq  0.829 / 0.859 / 0.107 / 0.549   ortho bini 0.781 / 0.789 / 0.267 / 0.333
+    // (with the linear extrapolation to the contour instead of the quadratic one:
+    // contour 0.099 / 0.060 / 0.274 / 0.113, but 0.356 / 0.339 on the eroded mask below)
     let persp = table("goblet", &render(&|r| goblet(r, GOBLET, 0.0), true));
     let ortho = table("goblet", &render(&|r| goblet(r, GOBLET, 0.0), false));
-    let bounds = [[0.25, 0.15], [0.6, 0.3]];
+    let bounds = [[0.5, 0.5], [0.3, 0.6]];
     for (rows, b) in [persp, ortho].iter().zip(bounds) {
         for (row, bound) in rows.iter().zip(b) {
             let [separate, median, contour, gap] = *row;
@@ -267,7 +271,7 @@ fn goblet_contours_place_cup_and_foot() {
 #[test]
 fn goblet_contours_with_noisy_normals() {
     // Measured (σ = 0.05 per normal component, MADE mm; separate / median / contour /
-    // gap): lsq 0.901 / 0.958 / 0.269 / 0.296, bini 0.877 / 0.927 / 0.230 / 0.279.
+    // gap): lsq 0.901 / 0.958 / 0.231 / 0.296, bini 0.877 / 0.927 / 0.132 / 0.279.
     let mut s = render(&|r| goblet(r, GOBLET, 0.0), true);
     add_noise(&mut s, 0.05);
     let rows = table("noisy goblet", &s);
@@ -280,10 +284,10 @@ fn goblet_contours_with_noisy_normals() {
 fn limits_tilted_axis_and_parts_at_different_depths() {
     // Where the assumptions fail every rule is centimetres off. Measured (MADE mm;
     // separate / median / contour / gap):
-    //   tilted persp lsq 8.358 / 8.386 / 7.437 / 8.384   bini 8.352 / 8.386 / 7.418 / 8.204
-    //   tilted ortho lsq 8.259 / 8.288 / 7.218 / 8.036   bini 8.214 / 8.242 / 7.284 / 7.368
-    //   spheres persp lsq 46.44 / 46.38 / 47.32 / 48.65  bini 46.46 / 46.39 / 47.34 / 50.34
-    //   spheres ortho lsq 44.91 / 44.74 / 46.64 / 46.44  bini 44.91 / 44.74 / 46.69 / 46.74
+    //   tilted persp lsq 8.358 / 8.386 / 5.459 / 8.384   bini 8.352 / 8.386 / 5.444 / 8.204
+    //   tilted ortho lsq 8.259 / 8.288 / 5.383 / 8.036   bini 8.214 / 8.242 / 5.393 / 7.368
+    //   spheres persp lsq 46.44 / 46.38 / 47.31 / 48.65  bini 46.46 / 46.39 / 47.34 / 50.34
+    //   spheres ortho lsq 44.91 / 44.74 / 46.71 / 46.44  bini 44.91 / 44.74 / 46.70 / 46.74
     for perspective in [true, false] {
         let tilted = table(
             "tilted",
@@ -295,6 +299,53 @@ fn limits_tilted_axis_and_parts_at_different_depths() {
         }
         for row in spheres {
             assert!(row.iter().all(|&e| (20.0..100.0).contains(&e)), "{row:?}");
+        }
+    }
+}
+
+/// The goblet with its outline one pixel inside the silhouette (`erode`) and a dozen
+/// one-pixel specks in the background (no truth: not scored).
+fn real_mask(erode: bool, specks: bool) -> Scene {
+    let mut s = render(&|r| goblet(r, GOBLET, 0.0), true);
+    if erode {
+        let inside = |i: usize| s.mask.data[i];
+        s.mask = Mask::from_fn(W, H, |r, c| {
+            let i = r * W + c;
+            (1..H - 1).contains(&r)
+                && (1..W - 1).contains(&c)
+                && [i, i - 1, i + 1, i - W, i + W].iter().all(|&j| inside(j))
+        });
+    }
+    for k in (0..12).filter(|_| specks) {
+        let i = (5 + 17 * k) * W + 3 + (k * 29) % 20;
+        assert!(!s.mask.data[i] && !s.mask.data[i + 1] && !s.mask.data[i - 1]);
+        s.mask.data[i] = true;
+        s.truth[i] = f64::NAN;
+    }
+    s
+}
+
+#[test]
+fn goblet_with_specks_and_an_eroded_mask() {
+    // DiLiGenT's outlines are like the eroded one: median n_z of the outline pixels 0.29
+    // on bear, 0.41 on harvest; here 0.137 as rendered, 0.236 eroded. Measured (MADE mm,
+    // contour / separate / gap): specks lsq 0.220 / 0.818 / 0.203, bini 0.224 / 0.816 /
+    // 0.236; eroded lsq 0.237 / 0.584 / 0.271, bini 0.191 / 0.586 / 0.244; both: as
+    // eroded (the specks are placed after the parts, and gap leaves them out of its tree;
+    // before it did, gap gave 0.055 / 0.027 there, by luck of the chain through specks).
+    for (erode, specks) in [(false, true), (true, false), (true, true)] {
+        let s = real_mask(erode, specks);
+        for method in [Method::Lsq, Method::bini()] {
+            let (c, parts) = score(&s, method, Parts::Contour);
+            let (sep, _) = score(&s, method, Parts::Separate);
+            let (gap, _) = score(&s, method, Parts::Gap);
+            assert_eq!(parts, if specks { 14 } else { 2 });
+            assert!(c < 0.5 && c < sep / 2.0, "contour {c:.3} separate {sep:.3}");
+            assert!(gap < 0.6 && gap < sep, "gap {gap:.3} separate {sep:.3}");
+            println!(
+                "erode {erode} specks {specks} {}: contour {c:.3} separate {sep:.3} gap {gap:.3} mm",
+                method.name()
+            );
         }
     }
 }

@@ -220,14 +220,9 @@ impl Index {
                 }
             }
             Node::Split { dim, value, right } => {
-                let diff = q[dim as usize] - value;
-                let (near, far) = if diff < 0.0 {
-                    (node + 1, right as usize)
-                } else {
-                    (right as usize, node + 1)
-                };
+                let (near, far, plane2) = Self::sides(node, dim, value, right, q);
                 self.search_where(near, q, accept, best);
-                if diff * diff < best.0 {
+                if plane2 < best.0 {
                     self.search_where(far, q, accept, best);
                 }
             }
@@ -288,14 +283,8 @@ impl Index {
                 true
             }
             Node::Split { dim, value, right } => {
-                let diff = q[dim as usize] - value;
-                let (near, far) = if diff < 0.0 {
-                    (node + 1, right as usize)
-                } else {
-                    (right as usize, node + 1)
-                };
-                self.search_least(near, q, b)
-                    && (diff * diff >= b.r2 || self.search_least(far, q, b))
+                let (near, far, plane2) = Self::sides(node, dim, value, right, q);
+                self.search_least(near, q, b) && (plane2 >= b.r2 || self.search_least(far, q, b))
             }
         }
     }
@@ -320,6 +309,18 @@ impl Index {
         }
     }
 
+    /// The children of split node `node` at (`dim`, `value`, `right`) nearer to and
+    /// farther from `q`, and the squared distance from `q` to the split plane.
+    #[inline]
+    fn sides(node: usize, dim: u16, value: f32, right: u32, q: &[f32; PAD]) -> (usize, usize, f32) {
+        let diff = q[dim as usize] - value;
+        if diff < 0.0 {
+            (node + 1, right as usize, diff * diff)
+        } else {
+            (right as usize, node + 1, diff * diff)
+        }
+    }
+
     #[inline]
     fn dist_at(&self, pos: usize, q: &[f32; PAD]) -> f32 {
         let p = &self.coords[pos * PAD..(pos + 1) * PAD];
@@ -341,14 +342,9 @@ impl Index {
                 }
             }
             Node::Split { dim, value, right } => {
-                let diff = q[dim as usize] - value;
-                let (near, far) = if diff < 0.0 {
-                    (node + 1, right as usize)
-                } else {
-                    (right as usize, node + 1)
-                };
+                let (near, far, plane2) = Self::sides(node, dim, value, right, q);
                 self.search(near, q, best);
-                if diff * diff < best.worst() {
+                if plane2 < best.worst() {
                     self.search(far, q, best);
                 }
             }

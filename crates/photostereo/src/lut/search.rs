@@ -7,7 +7,10 @@ use super::rim::{Rim, RimBuf};
 use super::single::{self, Buf, Single};
 use super::{Method, Options};
 use crate::image::normalize;
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::AtomicU32;
+
+mod certify;
+use certify::UNSET;
 
 /// Target number of points of the coarse grid used by the exhaustive searches.
 const COARSE_POINTS: usize = 1500;
@@ -22,14 +25,6 @@ const SAME_BASIN: f64 = 1.5;
 const MAX_EXTRAPOLATION: f64 = 2.0;
 /// Relative residual always accepted by the coherence tests.
 const WARM_FLOOR: f32 = 0.003;
-/// Grid distance (pixels) from an entry beyond which other entries count as lying
-/// outside its basin, for the entries' isolation radii (see `certified`).
-const ISOLATION_BASIN: f64 = 3.0;
-/// Bits of an isolation radius not computed yet (a NaN that `isolation_of` never stores).
-const UNSET: u32 = u32::MAX;
-/// Leaves the branch and bound of an uncertified shortcut may visit before the pixel
-/// goes through the plain tree search instead.
-const BOUND_LEAVES: usize = 48;
 /// A fit within this many grid pixels of the table's edge is refitted on the rim model.
 const RIM_TRIGGER: f64 = 1.0;
 
@@ -60,6 +55,18 @@ impl Warm {
 /// The two fits lie within [`SAME_BASIN`] grid pixels of each other.
 fn same_basin(a: &Fit, b: &Fit) -> bool {
     (a.gx - b.gx).powi(2) + (a.gy - b.gy).powi(2) <= SAME_BASIN * SAME_BASIN
+}
+
+/// ‖t‖² of a tuple padded with zeros to a multiple of 8 (eight partial sums, which the
+/// compiler vectorises).
+fn norm2(t: &[f32]) -> f32 {
+    let mut acc = [0.0f32; 8];
+    for chunk in t.chunks_exact(8) {
+        for (a, v) in acc.iter_mut().zip(chunk) {
+            *a += v * v;
+        }
+    }
+    ((acc[0] + acc[4]) + (acc[2] + acc[6])) + ((acc[1] + acc[5]) + (acc[3] + acc[7]))
 }
 
 /// √cost / ‖t‖ from a precomputed ‖t‖.
@@ -186,19 +193,22 @@ impl<'a> Solver<'a> {
                 tuple.iter_mut().for_each(|v| *v /= norm.max(1e-6));
             }
         }
-        let index = (!model.is_mix()).then(|| {
-            let dims = match opts.method {
-                Method::InverseDistance { .. } => k,
-                _ => opts.pca_dims,
-            };
-            Index::build(&ranked, k, &keep, dims)
-        });
-        let (coarse_pos, coarse_basis, coarse_step) = coarse_grid(&model);
+        let dims = match opts.method {
+            Method::InverseDistance { .. } => k,
+            _ => opts.pca_dims,
+        };
+        // the index on one worker, the coarse grid and the rim model on the other
+        let (index, ((coarse_pos, coarse_basis, coarse_step), rim)) = rayon::join(
+            || (!model.is_mix()).then(|| Index::build(&ranked, k, &keep, dims)),
+            || {
+                let rim = (!model.is_mix() && opts.method == Method::Refined)
+                    .then(|| Rim::fit(t0))
+                    .flatten();
+                (coarse_grid(&model), rim)
+            },
+        );
         let peaks = [t0.peak(), model.tables.get(1).map_or(0.0, |t| t.peak())];
         let single = (!model.is_mix()).then(|| Single::new(t0, opts.normalize));
-        let rim = (!model.is_mix() && opts.method == Method::Refined)
-            .then(|| Rim::fit(t0))
-            .flatten();
         let mut ones = vec![0.0; single::padded(k)];
         ones[..k].fill(1.0);
         let ws = &t0.window.stack;
@@ -221,33 +231,6 @@ impl<'a> Solver<'a> {
             rim,
             isolation: (0..n).map(|_| AtomicU32::new(UNSET)).collect(),
         }
-    }
-
-    /// The isolation radius of entry `e` at an even grid point (even row and column):
-    /// the projected distance to the nearest entry more than [`ISOLATION_BASIN`] px away
-    /// on the grid (an exact nearest-neighbour search that skips the entries within it).
-    /// Computed on first use and cached: only the entries that certify some pixel's fit
-    /// are ever searched (racing workers store the same value).
-    fn isolation_of(&self, index: &Index, e: u32) -> f32 {
-        let slot = &self.isolation[e as usize];
-        let bits = slot.load(Ordering::Relaxed);
-        if bits != UNSET {
-            return f32::from_bits(bits);
-        }
-        let (gx, gy) = self.entry_grid(e);
-        let rho = match index.point(e) {
-            None => 0.0,
-            Some(p) => {
-                let far = |id: u32| {
-                    let (x, y) = self.entry_grid(id);
-                    (x - gx).powi(2) + (y - gy).powi(2) > ISOLATION_BASIN * ISOLATION_BASIN
-                };
-                // infinite when every indexed entry is within the basin
-                index.nearest_where(p, far).0.max(0.0).sqrt()
-            }
-        };
-        slot.store(rho.to_bits(), Ordering::Relaxed);
-        rho
     }
 
     /// Table 0's entry at window pixel (r, c), `u32::MAX` where none.
@@ -274,7 +257,7 @@ impl<'a> Solver<'a> {
     /// pixel's candidates and `wk.s.warm` its solution.
     pub fn pixel(&self, wk: &mut Work) -> PixelOut {
         let k = self.model.k;
-        wk.norm = wk.t[..k].iter().map(|v| v * v).sum::<f32>().sqrt();
+        wk.norm = norm2(&wk.t).sqrt();
         wk.fresh = false;
         wk.projected = false;
         if let (Some(index), Method::InverseDistance { neighbours }) =
@@ -296,7 +279,7 @@ impl<'a> Solver<'a> {
         };
         self.update_warm(&fit, shadowed, wk);
         let fit = self.rim_fit(fit, wk);
-        let mut out = self.finish(&wk.t[..k], &wk.w[..k], fit, shadowed);
+        let mut out = self.finish(&wk.t[..k], &wk.w[..k], fit, shadowed, wk.norm);
         if self.model.is_mix() {
             let sigma = self
                 .model
@@ -374,77 +357,17 @@ impl<'a> Solver<'a> {
         fit
     }
 
-    /// The certificate of the coherence shortcut (module docs, step 1): no table entry
-    /// more than [`ISOLATION_BASIN`] + 1.5 px from `f` fits the target better. With e₀
-    /// the entry at the even grid point (even row and column) nearest to `f` and ρ(e₀) its isolation radius (the
-    /// projected distance to the nearest entry more than [`ISOLATION_BASIN`] px away on
-    /// the grid), every such entry lies at least ρ(e₀) − ‖q − e₀‖ from the query q in
-    /// the projected space, and the projected distance d bounds the cost from below
-    /// (raw matching: cost ≥ d²; normalised: cost ≥ ‖t‖²·min(1, d²/2)).
-    fn certified(&self, index: &Index, f: &Fit, wk: &mut Work) -> bool {
-        let even = |g: f64| 2 * (0.5 * g).round().max(0.0) as usize;
-        let e0 = self.entry_at(even(f.gy), even(f.gx));
-        if e0 == u32::MAX {
-            return false;
-        }
-        // cheap test first: with ρ = ∞ the bound is the largest it can be
-        if self.lower_bound(wk.norm, f32::INFINITY) < f.cost {
-            return false;
-        }
-        let d = index.distance(self.query(index, wk), e0).sqrt();
-        self.lower_bound(wk.norm, self.isolation_of(index, e0) - d) >= f.cost
-    }
-
-    /// Branch and bound over the index for a table entry that fits the target better
-    /// than `f` (all lights; module docs, step 1): `Some(None)` when none does,
-    /// `Some(Some(fit))` at the best one, `None` when the search ran over its budget of
-    /// [`BOUND_LEAVES`] leaves.
-    fn better_entry(&self, index: &Index, f: &Fit, wk: &mut Work) -> Option<Option<Fit>> {
-        let k = self.model.k;
-        self.query(index, wk);
-        let (norm2, normalize) = (wk.norm * wk.norm, self.opts.normalize);
-        // the squared projected radius beyond which every entry costs at least b
-        let reach = |b: f32| {
-            if !normalize {
-                b
-            } else if b >= norm2 {
-                f32::INFINITY
-            } else {
-                2.0 * b / norm2
-            }
-        };
-        let (t, q) = (&wk.t[..k], &wk.q[..index.dims()]);
-        let tuples = &self.model.tables[0].entries.tuples;
-        let tuple = |e: u32| &tuples[e as usize * k..(e as usize + 1) * k];
-        let cost = |e: u32| self.model.fit_with(t, None, tuple(e), tuple(e)).1;
-        let (_, e) = index.least(q, f.cost, reach, cost, BOUND_LEAVES)?;
-        if e == u32::MAX {
-            return Some(None);
-        }
-        let (coef, cost) = self.model.fit_with(t, None, tuple(e), tuple(e));
-        let (gx, gy) = self.entry_grid(e);
-        wk.s.seeds.clear();
-        wk.s.seeds.push(e);
-        Some(Some(Fit { gx, gy, coef, cost }))
-    }
-
-    /// Lower bound of the cost of an entry at projected distance `d` (≤ 0: none) from
-    /// the query of a target of norm `norm`.
-    fn lower_bound(&self, norm: f32, d: f32) -> f32 {
-        if d <= 0.0 {
-            0.0
-        } else if self.opts.normalize {
-            norm * norm * (0.5 * d * d).min(1.0)
-        } else {
-            d * d
-        }
-    }
-
     /// Cast shadows (module docs, step 4): drop the lights where the target is dark but
     /// the model of `fit` is lit and search again, up to 3 rounds. Returns the fit and the
     /// number of dropped lights (weights in `wk.w`).
     fn drop_shadowed(&self, mut fit: Fit, wk: &mut Work) -> (Fit, u16) {
         let k = self.model.k;
+        if let (Some(single), true) = (&self.single, wk.fresh) {
+            // the first round's test on the fast path's buffer: usually nothing to drop
+            if !single.any_dark_lit(&wk.t, fit.coef[0], self.level(&fit), &wk.b) {
+                return (fit, 0);
+            }
+        }
         let mut shadowed = 0u16;
         for _round in 0..3 {
             self.predict(&fit, wk);
@@ -772,15 +695,19 @@ impl<'a> Solver<'a> {
         let e = cands.ids[0];
         let (gx, gy) = self.entry_grid(e);
         let fit = self.model.eval(t, None, gx, gy, s);
-        let mut out = self.finish(t, &self.ones[..k], fit, 0);
+        let mut out = self.finish(t, &self.ones[..k], fit, 0, wk.norm);
         out.normal = normalize(acc);
         out
     }
 
-    /// Normal, residual and confidence of a final fit.
-    fn finish(&self, t: &[f32], w: &[f32], fit: Fit, shadowed: u16) -> PixelOut {
-        let used: f32 = w.iter().sum::<f32>().max(1.0);
-        let energy: f32 = t.iter().zip(w).map(|(t, w)| w * t * t).sum();
+    /// Normal, residual and confidence of a final fit; `norm` is ‖t‖ (the weights are all 1 when no light is `shadowed`).
+    fn finish(&self, t: &[f32], w: &[f32], fit: Fit, shadowed: u16, norm: f32) -> PixelOut {
+        let (used, energy) = if shadowed == 0 {
+            (t.len().max(1) as f32, norm * norm)
+        } else {
+            let energy: f32 = t.iter().zip(w).map(|(t, w)| w * t * t).sum();
+            (w.iter().sum::<f32>().max(1.0), energy)
+        };
         let rms_r = (fit.cost.max(0.0) / used).sqrt();
         let rms_t = (energy / used).sqrt();
         let level = self.level(&fit);

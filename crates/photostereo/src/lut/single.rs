@@ -5,9 +5,12 @@
 //! projection, Levenberg damping 10⁻⁶·tr H, steps of at most 1.5 px, up to 4 halvings),
 //! but fuses the bilinear interpolation of I and of its gradient, the coefficient fit, the
 //! cost and the normal equations into one pass over the K lights. The pass runs on
-//! 4-lane vectors (SSE2 on x86-64); the sphere window's tuples must therefore come in
-//! blocks of [`LANES`]: when K is not a multiple of it, the window is copied with its
-//! tuples padded with zeros. Target tuples and weights are padded the same way
+//! 4-lane vectors (SSE2, the x86-64 baseline); on x86-64 processors with AVX (checked
+//! at run time) [`Single::refine`] runs a second build of the same code on 8-lane AVX
+//! vectors (its lane sums are added in another order: results agree to rounding). The
+//! sphere window's tuples must therefore come in blocks of [`LANES`] = 8: when K is not
+//! a multiple of it, the window is copied with its tuples padded with zeros. Target
+//! tuples and weights are padded the same way
 //! (weight 0 beyond K).
 //!
 //! With a free scale c = ⟨t, I⟩/⟨I, I⟩ (normalised matching), the Jacobian is that of
@@ -24,7 +27,7 @@ use super::table::Table;
 use std::borrow::Cow;
 
 /// Lane width of the fused pass (lights per block).
-pub(crate) const LANES: usize = 4;
+pub(crate) const LANES: usize = 8;
 /// Maximum Gauss–Newton step (pixels), as in the generic refinement.
 const MAX_STEP: f64 = 1.5;
 /// Squared step length (px²) below which the iteration stops.
@@ -48,6 +51,8 @@ pub(crate) struct Single<'a> {
     rmax: f64,
     /// Fit a free scale c (normalised matching); else c = 1.
     scale: bool,
+    /// The processor has AVX (x86-64): [`Single::refine`] runs its AVX build.
+    avx: bool,
 }
 
 /// Result of one fused evaluation: position, coefficient, cost and normal equations
@@ -92,60 +97,76 @@ impl Buf {
     }
 }
 
-/// Four-lane f32 vectors: SSE2 on x86-64 (always available there), plain arrays
-/// elsewhere.
+/// f32 lane vectors: [`lanes::V4`] (SSE2 on x86-64, always there; plain arrays
+/// elsewhere) and, on x86-64, [`lanes::V8`] (AVX, used only by [`Single::refine`]'s AVX
+/// build, which runs only where the processor has it).
 mod lanes {
     #[cfg(target_arch = "x86_64")]
     use std::arch::x86_64::*;
 
+    /// The operations of the fused pass on `N` lanes.
+    pub trait Lanes: Copy {
+        /// Number of lanes.
+        const N: usize;
+        fn zero() -> Self;
+        fn splat(x: f32) -> Self;
+        /// The `N` values at `s[at..at + N]`.
+        fn load(s: &[f32], at: usize) -> Self;
+        fn store(self, s: &mut [f32], at: usize);
+        fn add(self, o: Self) -> Self;
+        fn sub(self, o: Self) -> Self;
+        fn mul(self, o: Self) -> Self;
+        /// Sum of the lanes.
+        fn sum(self) -> f32;
+    }
+
     /// Four f32 lanes.
     #[cfg(target_arch = "x86_64")]
     #[derive(Clone, Copy)]
-    pub struct V(__m128);
+    pub struct V4(__m128);
     /// Four f32 lanes.
     #[cfg(not(target_arch = "x86_64"))]
     #[derive(Clone, Copy)]
-    pub struct V([f32; 4]);
+    pub struct V4([f32; 4]);
 
     // SAFETY (all `unsafe` blocks of this impl): SSE and SSE2 are part of the x86-64
     // baseline, so the intrinsics are always available; loads and stores go through
     // slices of exactly 4 values.
     #[cfg(target_arch = "x86_64")]
-    impl V {
+    impl Lanes for V4 {
+        const N: usize = 4;
         #[inline(always)]
-        pub fn zero() -> V {
-            V(unsafe { _mm_setzero_ps() })
+        fn zero() -> V4 {
+            V4(unsafe { _mm_setzero_ps() })
         }
         #[inline(always)]
-        pub fn splat(x: f32) -> V {
-            V(unsafe { _mm_set1_ps(x) })
+        fn splat(x: f32) -> V4 {
+            V4(unsafe { _mm_set1_ps(x) })
         }
-        /// The 4 values at `s[at..at + 4]`.
         #[inline(always)]
-        pub fn load(s: &[f32], at: usize) -> V {
+        fn load(s: &[f32], at: usize) -> V4 {
             let s = &s[at..at + 4];
-            V(unsafe { _mm_loadu_ps(s.as_ptr()) })
+            V4(unsafe { _mm_loadu_ps(s.as_ptr()) })
         }
         #[inline(always)]
-        pub fn store(self, s: &mut [f32], at: usize) {
+        fn store(self, s: &mut [f32], at: usize) {
             let s = &mut s[at..at + 4];
             unsafe { _mm_storeu_ps(s.as_mut_ptr(), self.0) }
         }
         #[inline(always)]
-        pub fn add(self, o: V) -> V {
-            V(unsafe { _mm_add_ps(self.0, o.0) })
+        fn add(self, o: V4) -> V4 {
+            V4(unsafe { _mm_add_ps(self.0, o.0) })
         }
         #[inline(always)]
-        pub fn sub(self, o: V) -> V {
-            V(unsafe { _mm_sub_ps(self.0, o.0) })
+        fn sub(self, o: V4) -> V4 {
+            V4(unsafe { _mm_sub_ps(self.0, o.0) })
         }
         #[inline(always)]
-        pub fn mul(self, o: V) -> V {
-            V(unsafe { _mm_mul_ps(self.0, o.0) })
+        fn mul(self, o: V4) -> V4 {
+            V4(unsafe { _mm_mul_ps(self.0, o.0) })
         }
-        /// Sum of the lanes.
         #[inline(always)]
-        pub fn sum(self) -> f32 {
+        fn sum(self) -> f32 {
             unsafe {
                 let hi = _mm_movehl_ps(self.0, self.0);
                 let s2 = _mm_add_ps(self.0, hi);
@@ -156,49 +177,105 @@ mod lanes {
     }
 
     #[cfg(not(target_arch = "x86_64"))]
-    impl V {
+    impl Lanes for V4 {
+        const N: usize = 4;
         #[inline(always)]
-        pub fn zero() -> V {
-            V([0.0; 4])
+        fn zero() -> V4 {
+            V4([0.0; 4])
         }
         #[inline(always)]
-        pub fn splat(x: f32) -> V {
-            V([x; 4])
-        }
-        /// The 4 values at `s[at..at + 4]`.
-        #[inline(always)]
-        pub fn load(s: &[f32], at: usize) -> V {
-            V([s[at], s[at + 1], s[at + 2], s[at + 3]])
+        fn splat(x: f32) -> V4 {
+            V4([x; 4])
         }
         #[inline(always)]
-        pub fn store(self, s: &mut [f32], at: usize) {
+        fn load(s: &[f32], at: usize) -> V4 {
+            V4([s[at], s[at + 1], s[at + 2], s[at + 3]])
+        }
+        #[inline(always)]
+        fn store(self, s: &mut [f32], at: usize) {
             s[at..at + 4].copy_from_slice(&self.0);
         }
         #[inline(always)]
-        pub fn add(self, o: V) -> V {
-            V(std::array::from_fn(|i| self.0[i] + o.0[i]))
+        fn add(self, o: V4) -> V4 {
+            V4(std::array::from_fn(|i| self.0[i] + o.0[i]))
         }
         #[inline(always)]
-        pub fn sub(self, o: V) -> V {
-            V(std::array::from_fn(|i| self.0[i] - o.0[i]))
+        fn sub(self, o: V4) -> V4 {
+            V4(std::array::from_fn(|i| self.0[i] - o.0[i]))
         }
         #[inline(always)]
-        pub fn mul(self, o: V) -> V {
-            V(std::array::from_fn(|i| self.0[i] * o.0[i]))
+        fn mul(self, o: V4) -> V4 {
+            V4(std::array::from_fn(|i| self.0[i] * o.0[i]))
         }
-        /// Sum of the lanes.
         #[inline(always)]
-        pub fn sum(self) -> f32 {
+        fn sum(self) -> f32 {
             (self.0[0] + self.0[2]) + (self.0[1] + self.0[3])
+        }
+    }
+
+    /// Eight f32 lanes (AVX). Used only inside `Single::refine_avx`, which runs only
+    /// after the run-time check that the processor has AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[derive(Clone, Copy)]
+    pub struct V8(__m256);
+
+    // SAFETY (all `unsafe` blocks of this impl): the AVX intrinsics are sound where the
+    // processor has AVX; `V8` is used only by `Single::refine_avx`, which
+    // `Single::refine` calls only when `is_x86_feature_detected!("avx")` said so (the
+    // methods are inlined into it, so the intrinsics are compiled with AVX enabled).
+    // Loads and stores go through slices of exactly 8 values.
+    #[cfg(target_arch = "x86_64")]
+    impl Lanes for V8 {
+        const N: usize = 8;
+        #[inline(always)]
+        fn zero() -> V8 {
+            V8(unsafe { _mm256_setzero_ps() })
+        }
+        #[inline(always)]
+        fn splat(x: f32) -> V8 {
+            V8(unsafe { _mm256_set1_ps(x) })
+        }
+        #[inline(always)]
+        fn load(s: &[f32], at: usize) -> V8 {
+            let s = &s[at..at + 8];
+            V8(unsafe { _mm256_loadu_ps(s.as_ptr()) })
+        }
+        #[inline(always)]
+        fn store(self, s: &mut [f32], at: usize) {
+            let s = &mut s[at..at + 8];
+            unsafe { _mm256_storeu_ps(s.as_mut_ptr(), self.0) }
+        }
+        #[inline(always)]
+        fn add(self, o: V8) -> V8 {
+            V8(unsafe { _mm256_add_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn sub(self, o: V8) -> V8 {
+            V8(unsafe { _mm256_sub_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn mul(self, o: V8) -> V8 {
+            V8(unsafe { _mm256_mul_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn sum(self) -> f32 {
+            unsafe {
+                let lo = _mm256_castps256_ps128(self.0);
+                let hi = _mm256_extractf128_ps::<1>(self.0);
+                let s4 = _mm_add_ps(lo, hi);
+                let s2 = _mm_add_ps(s4, _mm_movehl_ps(s4, s4));
+                let s1 = _mm_add_ss(s2, _mm_shuffle_ps::<1>(s2, s2));
+                _mm_cvtss_f32(s1)
+            }
         }
     }
 }
 
-use lanes::V;
+use lanes::Lanes;
 
 /// The lane sums of one evaluation: JᵀJ terms (h11, h12, h22), ⟨I,I⟩, ⟨I,∂I/∂x⟩,
 /// ⟨I,∂I/∂y⟩ (weighted) and the residual terms (cost, gradient x, gradient y).
-struct Sums {
+struct Sums<V> {
     h: [V; 3],
     ii: V,
     xi: V,
@@ -210,7 +287,7 @@ struct Sums {
 /// part of ∂I that c absorbs is projected out (variable projection, Kaufman),
 /// J = c·(∂I − I⟨I,∂I⟩/⟨I,I⟩).
 #[inline(always)]
-fn point(gx: f64, gy: f64, c: f32, scaled: bool, s: &Sums) -> Point {
+fn point<V: Lanes>(gx: f64, gy: f64, c: f32, scaled: bool, s: &Sums<V>) -> Point {
     let (c64, c2) = (c as f64, (c * c) as f64);
     let sum = |x: V| x.sum() as f64;
     let mut h = s.h.map(sum);
@@ -237,10 +314,17 @@ fn point(gx: f64, gy: f64, c: f32, scaled: bool, s: &Sums) -> Point {
 /// then the residual terms of t − c·I (interpolated tuple and gradients in `b`) added to
 /// `acc`. Returns c.
 #[inline(always)]
-fn scaled_residuals(t: &[f32], w: &[f32], b: &Buf, ti: f32, ii: f32, acc: &mut [V; 3]) -> f32 {
+fn scaled_residuals<V: Lanes>(
+    t: &[f32],
+    w: &[f32],
+    b: &Buf,
+    ti: f32,
+    ii: f32,
+    acc: &mut [V; 3],
+) -> f32 {
     let c = if ii > 0.0 { (ti / ii).max(0.0) } else { 0.0 };
     let cv = V::splat(c);
-    for o in (0..t.len()).step_by(LANES) {
+    for o in (0..t.len()).step_by(V::N) {
         let r = V::load(t, o).sub(V::load(&b.v, o).mul(cv));
         let (dx, dy) = (V::load(&b.dx, o), V::load(&b.dy, o));
         accumulate(acc, r, V::load(w, o), dx, dy);
@@ -251,11 +335,23 @@ fn scaled_residuals(t: &[f32], w: &[f32], b: &Buf, ti: f32, ii: f32, acc: &mut [
 /// Add the weighted residual terms (Σ w r², Σ w r ∂I/∂gx, Σ w r ∂I/∂gy) of one lane
 /// block to `acc`.
 #[inline(always)]
-fn accumulate(acc: &mut [V; 3], r: V, w: V, dx: V, dy: V) {
+fn accumulate<V: Lanes>(acc: &mut [V; 3], r: V, w: V, dx: V, dy: V) {
     let wr = w.mul(r);
     acc[0] = acc[0].add(wr.mul(r));
     acc[1] = acc[1].add(wr.mul(dx));
     acc[2] = acc[2].add(wr.mul(dy));
+}
+
+/// Whether the processor has AVX (checked once per [`Single`]).
+fn avx_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 impl<'a> Single<'a> {
@@ -280,6 +376,7 @@ impl<'a> Single<'a> {
             centre: table.to_grid(table.circle.cx, table.circle.cy),
             rmax: table.search_radius(),
             scale,
+            avx: avx_available(),
         }
     }
 
@@ -298,13 +395,13 @@ impl<'a> Single<'a> {
 
     /// Cost and normal equations at (gx, gy) (clamped to the search disc) for the target
     /// `t` with weights `w` (both padded); `b` keeps the interpolated tuple.
-    #[inline]
-    pub fn eval(&self, t: &[f32], w: &[f32], gx: f64, gy: f64, b: &mut Buf) -> Point {
+    #[inline(always)]
+    pub fn eval<V: Lanes>(&self, t: &[f32], w: &[f32], gx: f64, gy: f64, b: &mut Buf) -> Point {
         let (gx, gy) = self.clamp(gx, gy);
         if self.scale {
-            self.eval_with::<true>(t, w, gx, gy, b)
+            self.eval_with::<V, true>(t, w, gx, gy, b)
         } else {
-            self.eval_with::<false>(t, w, gx, gy, b)
+            self.eval_with::<V, false>(t, w, gx, gy, b)
         }
     }
 
@@ -312,7 +409,7 @@ impl<'a> Single<'a> {
     /// accumulated in one pass; with one, a first pass interpolates and fits c, a second
     /// accumulates the residual terms.
     #[inline(always)]
-    fn eval_with<const SCALE: bool>(
+    fn eval_with<V: Lanes, const SCALE: bool>(
         &self,
         t: &[f32],
         w: &[f32],
@@ -336,7 +433,7 @@ impl<'a> Single<'a> {
         let (mut ti, mut ii, mut h11, mut h12, mut h22) = (z, z, z, z, z);
         let (mut xi, mut yi) = (z, z);
         let mut res = [z; 3];
-        for o in (0..kp).step_by(LANES) {
+        for o in (0..kp).step_by(V::N) {
             let (x00, x01) = (V::load(d, o), V::load(d, kp + o));
             let (x10, x11) = (V::load(d, bot + o), V::load(d, bot + kp + o));
             let (tl, wl) = (V::load(t, o), V::load(w, o));
@@ -363,7 +460,7 @@ impl<'a> Single<'a> {
             }
         }
         let c = if SCALE {
-            scaled_residuals(t, w, b, ti.sum(), ii.sum(), &mut res)
+            scaled_residuals::<V>(t, w, b, ti.sum(), ii.sum(), &mut res)
         } else {
             1.0
         };
@@ -375,6 +472,14 @@ impl<'a> Single<'a> {
             res,
         };
         point(gx, gy, c, SCALE, &sums)
+    }
+
+    /// Whether some light is dark in the target `t` (below `level`) but lit in the model
+    /// c·I of the last evaluation (above t + `level`): the test of a cast shadow.
+    pub fn any_dark_lit(&self, t: &[f32], c: f32, level: f32, b: &Buf) -> bool {
+        t.iter().zip(&b.v).fold(false, |any, (&t, &v)| {
+            any | ((t < level) & (c * v > t + level))
+        })
     }
 
     /// The model tuple c·I of the last evaluation into `out` (K values).
@@ -395,7 +500,43 @@ impl<'a> Single<'a> {
         iters: usize,
         b: &mut Buf,
     ) -> (Point, bool) {
-        let mut cur = self.eval(t, w, gx, gy, b);
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is set only where the processor reports AVX (`Single::new`)
+            return unsafe { self.refine_avx(t, w, gx, gy, iters, b) };
+        }
+        self.refine_with::<lanes::V4>(t, w, gx, gy, iters, b)
+    }
+
+    /// [`Single::refine`] compiled with AVX, on 8-lane vectors (the lane sums are taken
+    /// in another order than the 4-lane build's: results agree to rounding). Safety: call
+    /// only where the processor has AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn refine_avx(
+        &self,
+        t: &[f32],
+        w: &[f32],
+        gx: f64,
+        gy: f64,
+        iters: usize,
+        b: &mut Buf,
+    ) -> (Point, bool) {
+        self.refine_with::<lanes::V8>(t, w, gx, gy, iters, b)
+    }
+
+    /// The body of [`Single::refine`], inlined into each build.
+    #[inline(always)]
+    fn refine_with<V: Lanes>(
+        &self,
+        t: &[f32],
+        w: &[f32],
+        gx: f64,
+        gy: f64,
+        iters: usize,
+        b: &mut Buf,
+    ) -> (Point, bool) {
+        let mut cur = self.eval::<V>(t, w, gx, gy, b);
         let mut fresh = true;
         for _ in 0..iters {
             let [h11, h12, h22] = cur.h;
@@ -418,7 +559,7 @@ impl<'a> Single<'a> {
             }
             let mut accepted = false;
             for _ in 0..4 {
-                let f = self.eval(t, w, cur.gx + dx, cur.gy + dy, b);
+                let f = self.eval::<V>(t, w, cur.gx + dx, cur.gy + dy, b);
                 fresh = false;
                 if f.cost <= cur.cost {
                     cur = f;
@@ -444,6 +585,20 @@ mod tests {
     use crate::lut::model::{Model, Scratch};
     use crate::lut::table::BuildOptions;
     use crate::sphere::Circle;
+
+    /// [`Single::eval`] on 8 AVX lanes. Safety: call only where the processor has AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn eval_avx(
+        single: &Single,
+        t: &[f32],
+        w: &[f32],
+        gx: f64,
+        gy: f64,
+        b: &mut Buf,
+    ) -> Point {
+        single.eval::<lanes::V8>(t, w, gx, gy, b)
+    }
 
     /// A 64² sphere (radius 28 px) under `k` lights, diffuse + a Blinn–Phong lobe.
     fn table(k: usize) -> Table {
@@ -496,7 +651,16 @@ mod tests {
                 w[2] = 0.0;
                 let mut b = Buf::new(k);
                 for (gx, gy) in [(18.2, 24.9), (21.0, 26.5), (30.4, 12.1)] {
-                    let p = single.eval(&t, &w, gx, gy, &mut b);
+                    let p = single.eval::<lanes::V4>(&t, &w, gx, gy, &mut b);
+                    #[cfg(target_arch = "x86_64")]
+                    if avx_available() {
+                        // SAFETY: the processor has AVX (checked just above)
+                        let p8 = unsafe { eval_avx(&single, &t, &w, gx, gy, &mut b) };
+                        assert!((p8.cost - p.cost).abs() <= 1e-5 * (1.0 + p.cost));
+                        assert!((p8.c - p.c).abs() < 1e-5);
+                        let (h, h8) = (p.h[0] + p.h[2], p8.h[0] + p8.h[2]);
+                        assert!((h8 - h).abs() <= 1e-4 * h.abs(), "AVX {h8} vs {h}");
+                    }
                     let f = model.eval(&t[..k], Some(&w[..k]), gx, gy, &mut s);
                     assert!(
                         (p.cost - f.cost).abs() <= 1e-5 * (1.0 + f.cost),

@@ -1,0 +1,150 @@
+//! The coherence shortcut's global check (parent module docs, step 1): the certificate
+//! from the entries' isolation radii, and the branch and bound over the index when it
+//! fails.
+
+use super::{Fit, Index, Solver, Work};
+use std::sync::atomic::Ordering;
+
+/// Grid distance (pixels) from an entry beyond which other entries count as lying
+/// outside its basin, for the entries' isolation radii (see `certified`).
+const ISOLATION_BASIN: f64 = 3.0;
+/// Bits of an isolation radius not computed yet (a NaN that `isolation_of` never stores).
+pub(super) const UNSET: u32 = u32::MAX;
+/// Leaves the branch and bound of an uncertified shortcut may visit before the pixel
+/// goes through the plain tree search instead.
+const BOUND_LEAVES: usize = 48;
+
+impl Solver<'_> {
+    /// The isolation radius of entry `e` at an even grid point (even row and column):
+    /// the projected distance to the nearest entry more than [`ISOLATION_BASIN`] px away
+    /// on the grid (an exact nearest-neighbour search that skips the entries within it).
+    /// Computed on first use and cached: only the entries that certify some pixel's fit
+    /// are ever searched (racing workers store the same value).
+    fn isolation_of(&self, index: &Index, e: u32) -> f32 {
+        let slot = &self.isolation[e as usize];
+        let bits = slot.load(Ordering::Relaxed);
+        if bits != UNSET {
+            return f32::from_bits(bits);
+        }
+        let (gx, gy) = self.entry_grid(e);
+        let rho = match index.point(e) {
+            None => 0.0,
+            Some(p) => {
+                let far = |id: u32| {
+                    let (x, y) = self.entry_grid(id);
+                    (x - gx).powi(2) + (y - gy).powi(2) > ISOLATION_BASIN * ISOLATION_BASIN
+                };
+                // infinite when every indexed entry is within the basin
+                index.nearest_where(p, far).0.max(0.0).sqrt()
+            }
+        };
+        slot.store(rho.to_bits(), Ordering::Relaxed);
+        rho
+    }
+
+    /// The certificate of the coherence shortcut (module docs, step 1): no table entry
+    /// more than [`ISOLATION_BASIN`] + 1.5 px from `f` fits the target better. With e₀
+    /// the entry at the even grid point (even row and column) nearest to `f` and ρ(e₀) its isolation radius (the
+    /// projected distance to the nearest entry more than [`ISOLATION_BASIN`] px away on
+    /// the grid), every such entry lies at least ρ(e₀) − ‖q − e₀‖ from the query q in
+    /// the projected space, and the projected distance d bounds the cost from below
+    /// (raw matching: cost ≥ d²; normalised: cost ≥ ‖t‖²·min(1, d²/2)).
+    pub(super) fn certified(&self, index: &Index, f: &Fit, wk: &mut Work) -> bool {
+        let even = |g: f64| 2 * (0.5 * g).round().max(0.0) as usize;
+        let e0 = self.entry_at(even(f.gy), even(f.gx));
+        if e0 == u32::MAX {
+            return false;
+        }
+        // cheap test first: with ρ = ∞ the bound is the largest it can be
+        if self.lower_bound(wk.norm, f32::INFINITY) < f.cost {
+            return false;
+        }
+        let rho = self.isolation_of(index, e0);
+        // the projection is orthogonal, so the full K-dimensional distance bounds the
+        // projected one from above: a cheaper test first (no projection of the query)
+        if self.lower_bound(wk.norm, rho - self.full_distance(wk, e0)) >= f.cost {
+            return true;
+        }
+        let d = index.distance(self.query(index, wk), e0).sqrt();
+        self.lower_bound(wk.norm, rho - d) >= f.cost
+    }
+
+    /// Distance in the index's full K-dimensional space (tuples normalised when
+    /// matching is) from the current pixel's tuple to entry `e`'s: ≥ the projected one.
+    fn full_distance(&self, wk: &Work, e: u32) -> f32 {
+        let k = self.model.k;
+        let t = &wk.t[..k];
+        let tuple = &self.model.tables[0].entries.tuples[e as usize * k..(e as usize + 1) * k];
+        let (st, se) = if self.opts.normalize {
+            let ne = tuple.iter().map(|v| v * v).sum::<f32>().sqrt();
+            (1.0 / wk.norm.max(1e-12), 1.0 / ne.max(1e-6))
+        } else {
+            (1.0, 1.0)
+        };
+        // eight partial sums, which the compiler vectorises
+        let mut acc = [0.0f32; 8];
+        let (tc, ec) = (t.chunks_exact(8), tuple.chunks_exact(8));
+        let tail = tc.remainder().iter().zip(ec.remainder());
+        for (a8, b8) in tc.zip(ec) {
+            for ((acc, a), b) in acc.iter_mut().zip(a8).zip(b8) {
+                *acc += (a * st - b * se) * (a * st - b * se);
+            }
+        }
+        let head =
+            ((acc[0] + acc[4]) + (acc[2] + acc[6])) + ((acc[1] + acc[5]) + (acc[3] + acc[7]));
+        let rest: f32 = tail
+            .map(|(a, b)| (a * st - b * se) * (a * st - b * se))
+            .sum();
+        (head + rest).sqrt()
+    }
+
+    /// Branch and bound over the index for a table entry that fits the target better
+    /// than `f` (all lights; module docs, step 1): `Some(None)` when none does,
+    /// `Some(Some(fit))` at the best one, `None` when the search ran over its budget of
+    /// [`BOUND_LEAVES`] leaves.
+    pub(super) fn better_entry(
+        &self,
+        index: &Index,
+        f: &Fit,
+        wk: &mut Work,
+    ) -> Option<Option<Fit>> {
+        let k = self.model.k;
+        self.query(index, wk);
+        let (norm2, normalize) = (wk.norm * wk.norm, self.opts.normalize);
+        // the squared projected radius beyond which every entry costs at least b
+        let reach = |b: f32| {
+            if !normalize {
+                b
+            } else if b >= norm2 {
+                f32::INFINITY
+            } else {
+                2.0 * b / norm2
+            }
+        };
+        let (t, q) = (&wk.t[..k], &wk.q[..index.dims()]);
+        let tuples = &self.model.tables[0].entries.tuples;
+        let tuple = |e: u32| &tuples[e as usize * k..(e as usize + 1) * k];
+        let cost = |e: u32| self.model.fit_with(t, None, tuple(e), tuple(e)).1;
+        let (_, e) = index.least(q, f.cost, reach, cost, BOUND_LEAVES)?;
+        if e == u32::MAX {
+            return Some(None);
+        }
+        let (coef, cost) = self.model.fit_with(t, None, tuple(e), tuple(e));
+        let (gx, gy) = self.entry_grid(e);
+        wk.s.seeds.clear();
+        wk.s.seeds.push(e);
+        Some(Some(Fit { gx, gy, coef, cost }))
+    }
+
+    /// Lower bound of the cost of an entry at projected distance `d` (≤ 0: none) from
+    /// the query of a target of norm `norm`.
+    fn lower_bound(&self, norm: f32, d: f32) -> f32 {
+        if d <= 0.0 {
+            0.0
+        } else if self.opts.normalize {
+            norm * norm * (0.5 * d * d).min(1.0)
+        } else {
+            d * d
+        }
+    }
+}
