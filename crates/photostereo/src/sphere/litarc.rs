@@ -119,17 +119,25 @@ fn offset(i: usize) -> f64 {
     -HALF + STEP * i as f64
 }
 
+/// The K images as separate planes (row-major).
+fn planes(stack: &ImageStack) -> Vec<Vec<f32>> {
+    (0..stack.k)
+        .into_par_iter()
+        .map(|k| stack.image(k).data)
+        .collect()
+}
+
+/// The images that light the rim along a ray: contrast positive and at least half the
+/// best on that ray (`ray` as from [`ray_profiles`]).
+fn lit(ray: &[(f64, f64, Vec<f64>)]) -> impl Iterator<Item = usize> + '_ {
+    let best = ray.iter().map(|r| r.0).fold(0.0, f64::max);
+    (0..ray.len()).filter(move |&k| ray[k].0 > 0.0 && ray[k].0 >= 0.5 * best)
+}
+
 /// Per sector, the mean normalised profile of its lit rays and images (`None` where
 /// no ray of the sector lies in the image or nothing is lit).
 fn sector_profiles(stack: &ImageStack, c: &Circle) -> Vec<Option<Vec<f64>>> {
-    let planes: Vec<Vec<f32>> = (0..stack.k)
-        .into_par_iter()
-        .map(|k| {
-            (0..stack.pixels())
-                .map(|i| stack.data[i * stack.k + k])
-                .collect()
-        })
-        .collect();
+    let planes = planes(stack);
     let rays: Vec<Vec<(f64, f64, Vec<f64>)>> = (0..RAYS)
         .into_par_iter()
         .map(|j| ray_profiles(stack, &planes, c, j))
@@ -140,12 +148,9 @@ fn sector_profiles(stack: &ImageStack, c: &Circle) -> Vec<Option<Vec<f64>>> {
             let mut acc = vec![0.0; SAMPLES];
             let mut n = 0usize;
             for ray in &rays[s * per..(s + 1) * per] {
-                let best = ray.iter().map(|r| r.0).fold(0.0, f64::max);
-                for (con, _, p) in ray {
-                    if *con > 0.0 && *con >= 0.5 * best {
-                        acc.iter_mut().zip(p).for_each(|(a, v)| *a += v);
-                        n += 1;
-                    }
+                for k in lit(ray) {
+                    acc.iter_mut().zip(&ray[k].2).for_each(|(a, v)| *a += v);
+                    n += 1;
                 }
             }
             (n > 0).then(|| acc.iter().map(|a| a / n as f64).collect())
@@ -229,25 +234,13 @@ pub fn rim_model(stack: &ImageStack, start: &Circle) -> Option<(Circle, f64, f64
     if stack.k == 0 || start.radius < 3.0 * HALF {
         return None;
     }
-    let planes: Vec<Vec<f32>> = (0..stack.k)
-        .into_par_iter()
-        .map(|k| {
-            (0..stack.pixels())
-                .map(|i| stack.data[i * stack.k + k])
-                .collect()
-        })
-        .collect();
+    let planes = planes(stack);
     // per ray: (image, background, contrast) of the lit images
     let lit: Vec<Vec<(usize, f64, f64)>> = (0..RAYS)
         .into_par_iter()
         .map(|j| {
             let ray = ray_profiles(stack, &planes, start, j);
-            let best = ray.iter().map(|r| r.0).fold(0.0, f64::max);
-            ray.into_iter()
-                .enumerate()
-                .filter(|(_, r)| r.0 > 0.0 && r.0 >= 0.5 * best)
-                .map(|(k, r)| (k, r.1, r.0))
-                .collect()
+            lit(&ray).map(|k| (k, ray[k].1, ray[k].0)).collect()
         })
         .collect();
     let (w, h) = (stack.width, stack.height);

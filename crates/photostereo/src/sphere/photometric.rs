@@ -35,8 +35,15 @@
 //! 0.10 px from the circle of the dataset's true normals but the radius +1.43 px,
 //! **outside** the silhouette (+0.74 px) and beside the highlights' +1.45 px: through
 //! the calibrated lights, the ball's shading is that of a sphere 2% larger than the true
-//! normals' (the true circle's residual is 1.33× the minimum's). Not a detector; a
-//! consistency check of a circle and the lights.
+//! normals' (the true circle's residual is 1.33× the minimum's).
+//!
+//! **The radius is only as good as the reflectance model; the centre is robust.** A lobe
+//! outside the model's form biases the radius: a Blinn–Phong radiance lobe (n·h)^40 on
+//! a synthetic sphere of radius 38 px gives −0.54 px (centre 0.004 px; unit tests). A
+//! third term R(θ_h, θ_d) (so that such a lobe is held) recovers that sphere within
+//! 0.003 px but puts the Mitsuba plastic at −0.51 px and the ball at +1.88 px (centre
+//! 0.08 px): with a more flexible model the radius is poorly identified. Not a detector;
+//! a consistency check of a circle and the lights.
 //!
 //! References: S. Rusinkiewicz, "A new change of variables for efficient BRDF
 //! representation", EGWR 1998; F. Romeiro, Y. Vasilyev, T. Zickler, "Passive
@@ -46,6 +53,9 @@ use super::Circle;
 use crate::error::{Error, Result};
 use crate::image::ImageStack;
 use rayon::prelude::*;
+
+/// Terms of the model: P·(n·l) and Q/n_z.
+const PARTS: usize = 2;
 
 /// Settings of [`fit`].
 #[derive(Clone, Debug)]
@@ -157,7 +167,7 @@ impl<'a> Model<'a> {
 
     /// Coefficients: P then Q, each (θ_h functions) × (θ_d functions).
     fn coefficients(&self) -> usize {
-        2 * (self.opts.theta_h_intervals + 3) * (self.opts.theta_d_intervals + 3)
+        PARTS * (self.opts.theta_h_intervals + 3) * (self.opts.theta_d_intervals + 3)
     }
 
     /// Add the model's reduced row for light `k` at the point `uv` on `circle`, times
@@ -224,7 +234,7 @@ impl Normal {
 
 /// Light `k`'s normal equations in the reduced (θ_h only) basis.
 fn light_equations(s: &Samples, m: &Model, c: &Circle, k: usize) -> Normal {
-    let nr = 2 * (m.opts.theta_h_intervals + 3);
+    let nr = PARTS * (m.opts.theta_h_intervals + 3);
     let sfp = m.opts.footprint.max(1);
     let offs: Vec<f64> = (0..sfp)
         .map(|i| (i as f64 + 0.5) / sfp as f64 - 0.5)
@@ -271,7 +281,7 @@ fn normal_equations(s: &Samples, m: &Model, c: &Circle) -> Normal {
             |mut acc, k| {
                 let e = light_equations(s, m, c, k);
                 let (id, wd) = m.td[k];
-                let nr = 2 * nh;
+                let nr = PARTS * nh;
                 for a in 0..nr {
                     for (ja, &wa) in wd.iter().enumerate() {
                         let fa = full(a, id + ja);
@@ -504,4 +514,119 @@ pub fn fit(
         }),
         samples: n,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sphere on a black background, each pixel the mean of 4 × 4 samples, under 16
+    /// lights at 15° and 35°: Lambertian 0.6 plus a specular lobe 0.3 (n·h)^40, as
+    /// radiance (Blinn–Phong) or over 4 n_z (a microfacet lobe D/(4 n·v), G = F = 1).
+    fn render(c: &Circle, size: usize, microfacet: bool) -> (ImageStack, Vec<[f32; 3]>) {
+        let lights: Vec<[f32; 3]> = (0..16)
+            .map(|k| {
+                let (th, ph) = (
+                    if k < 4 { 15f32 } else { 35f32 }.to_radians(),
+                    k as f32 * 1.3,
+                );
+                [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()]
+            })
+            .collect();
+        let mut data = vec![0.0f32; size * size * lights.len()];
+        for (i, px) in data.chunks_mut(lights.len()).enumerate() {
+            let (r, col) = (i / size, i % size);
+            for sy in 0..4 {
+                for sx in 0..4 {
+                    let u = col as f64 + (sx as f64 + 0.5) / 4.0;
+                    let v = r as f64 + (sy as f64 + 0.5) / 4.0;
+                    let (nx, ny) = ((u - c.cx) / c.radius, -(v - c.cy) / c.radius);
+                    let rho2 = nx * nx + ny * ny;
+                    if rho2 >= 1.0 {
+                        continue;
+                    }
+                    let n = [nx, ny, (1.0 - rho2).sqrt()];
+                    for (k, l) in lights.iter().enumerate() {
+                        let l = l.map(f64::from);
+                        let nl = (n[0] * l[0] + n[1] * l[1] + n[2] * l[2]).max(0.0);
+                        let h = [l[0], l[1], l[2] + 1.0];
+                        let hn = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+                        let nh = ((n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / hn).max(0.0);
+                        let lobe = if microfacet { 0.25 / n[2] } else { 1.0 };
+                        let spec = if nl > 0.0 {
+                            0.3 * nh.powi(40) * lobe
+                        } else {
+                            0.0
+                        };
+                        px[k] += ((0.6 * nl + spec) / 16.0) as f32;
+                    }
+                }
+            }
+        }
+        let stack = ImageStack {
+            width: size,
+            height: size,
+            k: lights.len(),
+            data,
+            names: Vec::new(),
+        };
+        (stack, lights)
+    }
+
+    fn fit_from_shifted_start(microfacet: bool) -> (f64, f64, PhotometricFit) {
+        let truth = Circle {
+            cx: 48.3,
+            cy: 47.6,
+            radius: 38.0,
+        };
+        let (stack, lights) = render(&truth, 96, microfacet);
+        let start = Circle {
+            cx: 48.9,
+            cy: 47.2,
+            radius: 38.8,
+        };
+        let f = fit(&stack, &lights, &start, &PhotometricOptions::default()).unwrap();
+        let ec = (f.circle.cx - truth.cx).hypot(f.circle.cy - truth.cy);
+        let er = f.circle.radius - truth.radius;
+        println!(
+            "microfacet {microfacet}: centre {ec:.4} px, radius {er:+.4} px, rms {:.2e} (start {:.2e})",
+            f.rms, f.rms_at_start
+        );
+        (ec, er, f)
+    }
+
+    /// A lobe the model holds (D/(4 n_z)): the circle is recovered.
+    #[test]
+    fn recovers_the_circle_from_a_shifted_start() {
+        let (ec, er, f) = fit_from_shifted_start(true);
+        assert!(
+            ec < 0.05 && er.abs() < 0.05,
+            "centre {ec:.3}, radius {er:+.3}"
+        );
+        assert!(f.rms < 0.2 * f.rms_at_start);
+    }
+
+    /// A lobe the model does not hold exactly (Blinn–Phong radiance, no 1/n_z): the
+    /// centre stays right but the radius is biased — measured centre 0.004 px, radius
+    /// −0.535 px (1.4%). The radius from shading is only as good as the model.
+    #[test]
+    fn radius_is_biased_by_a_lobe_outside_the_model() {
+        let (ec, er, _) = fit_from_shifted_start(false);
+        assert!(
+            ec < 0.05 && (-0.8..-0.3).contains(&er),
+            "centre {ec:.3}, radius {er:+.3}"
+        );
+    }
+
+    #[test]
+    fn lights_must_match_the_images() {
+        let c = Circle {
+            cx: 20.0,
+            cy: 20.0,
+            radius: 15.0,
+        };
+        let (stack, lights) = render(&c, 40, true);
+        let err = fit(&stack, &lights[..3], &c, &PhotometricOptions::default()).unwrap_err();
+        assert!(err.to_string().contains("3 lights for 16 images"), "{err}");
+    }
 }
