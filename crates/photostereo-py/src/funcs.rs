@@ -205,14 +205,14 @@ fn method(name: Option<&str>, mask: &Mask) -> PyResult<integ::Method> {
 }
 
 /// integrate(normals, mask=None, method="auto", weights=None, camera=None, focal=None,
-/// min_nz=0.05, bini_k=2.0) -> (H, W) depth
+/// min_nz=0.05, bini_k=2.0, parts="contour") -> (H, W) depth
 ///
 /// `camera` is `(text, name)`: a 3×3 intrinsics matrix as text (the `--camera K.txt`
 /// format; `name` names it in errors); `focal` a focal length in pixels with the
 /// principal point at the image centre (`--focal`). With either, the integration is
 /// perspective and "auto" means lsq.
 #[pyfunction]
-#[pyo3(signature = (normals, mask=None, method=None, weights=None, camera=None, focal=None, min_nz=0.05, bini_k=2.0))]
+#[pyo3(signature = (normals, mask=None, method=None, weights=None, camera=None, focal=None, min_nz=0.05, bini_k=2.0, parts=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn integrate<'py>(
     py: Python<'py>,
@@ -224,8 +224,14 @@ pub fn integrate<'py>(
     focal: Option<f64>,
     min_nz: f32,
     bini_k: f32,
+    parts: Option<&str>,
 ) -> PyResult<Bound<'py, PyArray2<f32>>> {
     let n = convert::normals_from(&normals)?;
+    let parts = match parts {
+        None => integ::Parts::default(),
+        Some(name) => integ::Parts::from_name(name)
+            .map_err(|e| value_error(format!("parts={name:?}: {e}")))?,
+    };
     let mask = mask
         .map(|m| convert::mask_from(&m))
         .unwrap_or_else(|| Mask::full(n.width, n.height));
@@ -268,7 +274,7 @@ pub fn integrate<'py>(
         weights: weights.map(|w| convert::gray_from(&w)),
         min_nz,
         camera,
-        parts: integ::Parts::default(),
+        parts,
     };
     let out = crate::compute(py, move || integ::solve(&n, &mask, &opts))?;
     Ok(convert::gray_to_py(py, out.depth))

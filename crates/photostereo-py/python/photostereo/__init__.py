@@ -260,6 +260,7 @@ def integrate(
     weights: Optional[np.ndarray] = None,
     min_nz: float = 0.05,
     bini_k: float = 2.0,
+    parts: str = "contour",
 ) -> np.ndarray:
     """Depth from a normal map (``photostereo integrate``).
 
@@ -276,11 +277,15 @@ def integrate(
     weights: (H, W) per-pixel confidence (>= 0) for "lsq" and "bini".
     min_nz: smallest accepted n_z; normals below it (or NaN) are clamped.
     bini_k: "bini": sharpness of its sigmoid weights (larger breaks more easily).
+    parts: how separate parts of the mask are placed relative to each other (``--parts``):
+        "contour" (their occluding contours at one depth: a body of revolution such as a
+        goblet's cup and foot), "gap" (equal depth across the narrowest gap between parts),
+        "median" (equal median depth) or "separate" (each part centred on its own).
 
     Returns (H, W) float32 depth, NaN outside the mask: orthographic, in pixels, larger =
     closer; with a camera, the distance along the optical axis (positive, larger =
     farther, up to scale: its geometric mean over the mask is the focal length). Separate
-    parts of the mask are placed with their occluding contours at one depth (CLI --parts).
+    parts of the mask are placed as ``parts`` says.
 
     Raises ValueError (bad shapes, method, camera), FileNotFoundError (camera file).
     """
@@ -311,6 +316,7 @@ def integrate(
         focal=focal,
         min_nz=float(min_nz),
         bini_k=float(bini_k),
+        parts=str(parts),
     )
 
 

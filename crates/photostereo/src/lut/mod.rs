@@ -90,13 +90,14 @@
 //!
 //! **Speed** (`photostereo bench --only lookup`: 1024² shiny vase, 606k mask pixels,
 //! K = 16, table of a radius-150 sphere, 2 cores): about 9 Mpx/s before the
-//! certificate and the rim model, which cost 1.6× the CPU time (measured side by side,
-//! 0.18–0.20 → 0.29–0.30 s per run on a loaded machine; ≈ 94% of pixels are
-//! certified, ≈ 4.5% kept by the branch and bound, ≈ 1.5% go through the tree; the
-//! entries' isolation radii are searched
-//! lazily, for the entries that certify some pixel, and cached); scikit-learn's `KDTree` (nearest entry
-//! only) does 0.42 Mpx/s on comparable data (`benches/sklearn_lookup.py`). The workers
-//! write the output images row by row (`planes.rs`).
+//! certificate and the rim model, which cost about 1.6× the CPU time. Of the vase's
+//! pixels ≈ 94.6% are certified, ≈ 4.5% kept by the branch and bound and ≈ 0.7% go
+//! through the tree; Gauss–Newton takes 1.8 evaluations per pixel (8 lanes with AVX,
+//! 4 with SSE2, chosen at run time), and the isolation radii of the entries that
+//! certify some pixel are searched once and cached. Side by side with scikit-learn's
+//! `KDTree` (nearest entry only; `benches/sklearn_lookup.py`, 2026-12-02, idle machine)
+//! the lookup is ≈ 13–14× faster in wall time (issue 10 asks for 18×; README,
+//! "Benchmarks"). The workers write the output images row by row (`planes.rs`).
 //!
 //! The table itself (building, file format) is in [`table`] and [`format`].
 
