@@ -4,10 +4,12 @@
 //! a shiny ball. Each case compares the rim model (module `sphere::rim`) with the
 //! mid-level crossings of edge points alone, against the exact circle.
 
+mod sphere_common;
 mod sphere_support;
 
 use photostereo::image::{GrayImage, Image, ImageStack};
 use photostereo::sphere::{detect, litarc, Circle, DetectOptions, Detection};
+use sphere_common::gaussian_blur;
 use sphere_support::{spiral_lights, Rng};
 
 /// A scene with the defects switched on or off.
@@ -94,34 +96,6 @@ fn render(d: &Defects, seed: u64) -> ImageStack {
         })
         .collect();
     ImageStack::from_images(&images).unwrap()
-}
-
-fn gaussian_blur(img: &GrayImage, sigma: f64) -> GrayImage {
-    if sigma <= 0.0 {
-        return img.clone();
-    }
-    let half = (4.0 * sigma).ceil() as isize;
-    let k: Vec<f64> = (-half..=half)
-        .map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp())
-        .collect();
-    let norm: f64 = k.iter().sum();
-    let (w, h) = (img.width as isize, img.height as isize);
-    let pass = |src: &GrayImage, horizontal: bool| {
-        Image::from_fn(img.width, img.height, |r, c| {
-            let mut acc = 0.0;
-            for (j, kv) in k.iter().enumerate() {
-                let o = j as isize - half;
-                let (rr, cc) = if horizontal {
-                    (r as isize, (c as isize + o).clamp(0, w - 1))
-                } else {
-                    ((r as isize + o).clamp(0, h - 1), c as isize)
-                };
-                acc += kv * *src.get(rr as usize, cc as usize) as f64;
-            }
-            (acc / norm) as f32
-        })
-    };
-    pass(&pass(img, true), false)
 }
 
 /// Centre and radius errors of a detection (pixels).
