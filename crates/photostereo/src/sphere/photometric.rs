@@ -305,41 +305,17 @@ fn normal_equations(s: &Samples, m: &Model, c: &Circle) -> Normal {
         .reduce(|| Normal::zero(nb), Normal::add)
 }
 
-/// Solve the SPD system `g x = rhs` (n × n, row-major) by Cholesky; `None` if not SPD.
-fn cholesky_solve(mut g: Vec<f64>, rhs: &[f64]) -> Option<Vec<f64>> {
+/// Solve the SPD system `g x = rhs` (n × n, row-major) by faer's dense Cholesky;
+/// `None` if not SPD.
+fn cholesky_solve(g: &[f64], rhs: &[f64]) -> Option<Vec<f64>> {
+    use faer::linalg::solvers::Solve;
     let n = rhs.len();
-    for j in 0..n {
-        let mut d = g[j * n + j];
-        for k in 0..j {
-            d -= g[j * n + k] * g[j * n + k];
-        }
-        if d <= 0.0 || !d.is_finite() {
-            return None;
-        }
-        let d = d.sqrt();
-        g[j * n + j] = d;
-        for i in j + 1..n {
-            let mut v = g[i * n + j];
-            for k in 0..j {
-                v -= g[i * n + k] * g[j * n + k];
-            }
-            g[i * n + j] = v / d;
-        }
-    }
-    let mut x = rhs.to_vec();
-    for i in 0..n {
-        for k in 0..i {
-            x[i] -= g[i * n + k] * x[k];
-        }
-        x[i] /= g[i * n + i];
-    }
-    for i in (0..n).rev() {
-        for k in i + 1..n {
-            x[i] -= g[k * n + i] * x[k];
-        }
-        x[i] /= g[i * n + i];
-    }
-    Some(x)
+    let llt = faer::Mat::from_fn(n, n, |i, j| g[i * n + j])
+        .llt(faer::Side::Lower)
+        .ok()?;
+    let x = llt.solve(faer::Mat::from_fn(n, 1, |i, _| rhs[i]));
+    let x: Vec<f64> = (0..n).map(|i| x[(i, 0)]).collect();
+    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 /// Residual sum of squares of the shared reflectance on `c`, and the sample count.
@@ -351,7 +327,7 @@ fn rss(s: &Samples, m: &Model, c: &Circle) -> Option<(f64, usize)> {
     for i in 0..nb {
         g[i * nb + i] += 1e-10 * trace / nb as f64;
     }
-    let x = cholesky_solve(g, &ne.rhs)?;
+    let x = cholesky_solve(&g, &ne.rhs)?;
     let mut xgx = 0.0;
     for i in 0..nb {
         let gi: f64 = (0..nb).map(|j| ne.g[i * nb + j] * x[j]).sum();
