@@ -283,6 +283,10 @@ impl Level {
         let n = sc * (hc + 2);
         let (mut east, mut south, mut mass) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         for r in 0..h {
+            if self.clean[r..r + 3].iter().all(|&c| c) {
+                self.coarsen_clean_row(r, &mut east, &mut south, &mut mass, sc);
+                continue;
+            }
             for c in 0..w {
                 let i = (r + 1) * s + c + 1;
                 if !self.incl[i] {
@@ -311,6 +315,39 @@ impl Level {
             }
         }
         Level::new(wc, hc, east, south, mass)
+    }
+
+    /// [`Level::coarsen`] on row r when it and the rows next to it are clean: every
+    /// edge of non-zero weight joins two included cells, so no edge adds to a mass and
+    /// no test is needed (a cell without unknown has no mass and no edges). The same
+    /// sums in the same order as the general loop, less its additions of zero.
+    fn coarsen_clean_row(
+        &self,
+        r: usize,
+        east: &mut [f32],
+        south: &mut [f32],
+        mass: &mut [f32],
+        sc: usize,
+    ) {
+        let (w, h, s) = (self.w, self.h, self.stride());
+        let fine = (r + 1) * s + 1..(r + 1) * s + 1 + w;
+        let crow = (r / 2 + 1) * sc + 1;
+        for (c, &m) in self.mass[fine.clone()].iter().enumerate() {
+            if m != 0.0 {
+                mass[crow + c / 2] += m / GAMMA;
+            }
+        }
+        // Edges leaving a block to the right: cells 2j + 1 (0-based), 2j + 2 < w.
+        let (fe, ce) = (&self.east[fine.clone()], &mut east[crow..crow + w / 2]);
+        for (j, out) in ce.iter_mut().enumerate().take((w - 1) / 2) {
+            *out += fe[2 * j + 1] / GAMMA;
+        }
+        if r % 2 == 1 && r + 1 < h {
+            let (fs, cs) = (&self.south[fine], &mut south[crow..crow + w.div_ceil(2)]);
+            for (c, &v) in fs.iter().enumerate() {
+                cs[c / 2] += v / GAMMA;
+            }
+        }
     }
 }
 
