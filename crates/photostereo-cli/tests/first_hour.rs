@@ -34,9 +34,14 @@ fn text(o: &Output) -> String {
     )
 }
 
-/// `synth --interreflections` (the `synth --help` bowl) at `size`, then `interreflect` on it.
+/// `synth --interreflections` (the `synth --help` bowl) at `size`, in `out_dir("bowl{size}")`.
 fn bowl_with_interreflections(size: usize) -> PathBuf {
-    let dir = out_dir(&format!("bowl{size}"));
+    bowl_with_interreflections_in(&format!("bowl{size}"), size)
+}
+
+/// The same bowl in `out_dir(name)`.
+fn bowl_with_interreflections_in(name: &str, size: usize) -> PathBuf {
+    let dir = out_dir(name);
     let s = size.to_string();
     let o = photostereo(
         &[
@@ -218,25 +223,7 @@ fn chrome_run_saves_lights_overlay_and_report_pictures() {
 /// Interreflection removal without a known image scale warns; with one it does not.
 #[test]
 fn interreflections_without_an_image_scale_warn() {
-    let data = out_dir("bowl64");
-    let o = photostereo(
-        &[
-            "-q",
-            "synth",
-            "--shape",
-            "bowl",
-            "--material",
-            "lambertian",
-            "-k",
-            "8",
-            "--interreflections",
-            "--size",
-            "64",
-            "-o",
-        ],
-        &[&data],
-    );
-    assert!(o.status.success(), "{}", text(&o));
+    let data = bowl_with_interreflections_in("bowl64", 64);
     for (scale, warned) in [(None, true), (Some("1"), false)] {
         let out = out_dir(&format!("bowl64-run-{warned}"));
         let mut args = vec!["run", "--lambertian", "--interreflections"];
@@ -356,25 +343,7 @@ fn demo_at_512_runs_every_scene() {
 /// when it ends.
 #[test]
 fn progress_is_logged_as_lines_without_a_terminal() {
-    let data = out_dir("progress-bowl");
-    let o = photostereo(
-        &[
-            "-q",
-            "synth",
-            "--shape",
-            "bowl",
-            "--material",
-            "lambertian",
-            "-k",
-            "8",
-            "--size",
-            "48",
-            "--interreflections",
-            "-o",
-        ],
-        &[&data],
-    );
-    assert!(o.status.success(), "{}", text(&o));
+    let data = bowl_with_interreflections_in("progress-bowl", 48);
     let o = photostereo(
         &["interreflect", "--max-iter", "3", "--tol", "0", "-o"],
         &[&out_dir("progress-ir"), &data],

@@ -85,24 +85,23 @@ fn check_outputs(out: &Path, data: &Path, with_stage: bool) -> f64 {
     mean_error(&n, &gt, &mask)
 }
 
+/// Runs `cmd` twice, into `with/` and into `without/` (adding `--no-spatial`), beside
+/// `data`; (error with the stage, error without, [with, without] output dirs).
+fn with_and_without_the_stage(cmd: &[&str], data: &Path) -> (f64, f64, [PathBuf; 2]) {
+    let dir = data.parent().unwrap().to_path_buf();
+    let (with, without) = (dir.join("with"), dir.join("without"));
+    photostereo(&[cmd, &["-o", s(&with)]].concat());
+    photostereo(&[cmd, &["--no-spatial", "-o", s(&without)]].concat());
+    let e_with = check_outputs(&with, data, true);
+    let e_without = check_outputs(&without, data, false);
+    (e_with, e_without, [with, without])
+}
+
 #[test]
 fn normals_writes_sigma_and_honours_no_spatial() {
     let (data, lut) = dataset("normals");
-    let dir = data.parent().unwrap().to_path_buf();
-    let (with, without) = (dir.join("with"), dir.join("without"));
-    photostereo(&["-q", "normals", s(&data), "--lut", s(&lut), "-o", s(&with)]);
-    photostereo(&[
-        "-q",
-        "normals",
-        s(&data),
-        "--lut",
-        s(&lut),
-        "--no-spatial",
-        "-o",
-        s(&without),
-    ]);
-    let e_with = check_outputs(&with, &data, true);
-    let e_without = check_outputs(&without, &data, false);
+    let cmd = ["-q", "normals", s(&data), "--lut", s(&lut)];
+    let (e_with, e_without, _) = with_and_without_the_stage(&cmd, &data);
     println!("normals: lookup alone {e_without:.2}°, with the spatial stage {e_with:.2}°");
     // measured: lookup alone 1.79°, with the spatial stage 0.63° (run: 1.78°, 0.65°)
     assert!(
@@ -114,30 +113,9 @@ fn normals_writes_sigma_and_honours_no_spatial() {
 #[test]
 fn run_writes_sigma_reports_the_stage_and_honours_no_spatial() {
     let (data, _) = dataset("run");
-    let dir = data.parent().unwrap().to_path_buf();
-    let (with, without) = (dir.join("with"), dir.join("without"));
     let sphere = data.join("sphere");
-    photostereo(&[
-        "-q",
-        "run",
-        "--sphere",
-        s(&sphere),
-        s(&data),
-        "-o",
-        s(&with),
-    ]);
-    photostereo(&[
-        "-q",
-        "run",
-        "--sphere",
-        s(&sphere),
-        s(&data),
-        "--no-spatial",
-        "-o",
-        s(&without),
-    ]);
-    let e_with = check_outputs(&with, &data, true);
-    let e_without = check_outputs(&without, &data, false);
+    let cmd = ["-q", "run", "--sphere", s(&sphere), s(&data)];
+    let (e_with, e_without, [with, without]) = with_and_without_the_stage(&cmd, &data);
     println!("run: lookup alone {e_without:.2}°, with the spatial stage {e_with:.2}°");
     // measured: lookup alone 1.79°, with the spatial stage 0.63° (run: 1.78°, 0.65°)
     assert!(

@@ -72,11 +72,8 @@ fn sphere_beside_a_bright_disk(synth_sphere: &Path, out: &Path, r: f64) {
     io::write_dataset(out, &stack, &lights, Some(&m), 16).unwrap();
 }
 
-#[test]
-fn calibrate_and_run_find_the_same_circle_inside_the_folders_mask() {
-    let root = tmp("same-circle");
-    let data = root.join("data");
-    let r = 30.0;
+/// `synth`'s 48² plastic scene under 12 lights with its calibration sphere (r 30 px) in `data`.
+fn synth_plastic_with_a_sphere(data: &Path) {
     let (ok, _, err) = photostereo(&[
         "-q",
         "synth",
@@ -87,11 +84,19 @@ fn calibrate_and_run_find_the_same_circle_inside_the_folders_mask() {
         "--size",
         "48",
         "-o",
-        s(&data),
+        s(data),
         "--calib-sphere",
         "30",
     ]);
     assert!(ok, "synth failed: {err}");
+}
+
+#[test]
+fn calibrate_and_run_find_the_same_circle_inside_the_folders_mask() {
+    let root = tmp("same-circle");
+    let data = root.join("data");
+    let r = 30.0;
+    synth_plastic_with_a_sphere(&data);
     let sphere = root.join("sphere");
     sphere_beside_a_bright_disk(&data.join("sphere"), &sphere, r);
     // the true circle: synth centres the sphere in its square image
@@ -140,21 +145,7 @@ fn calibrate_and_run_find_the_same_circle_inside_the_folders_mask() {
 fn calibrate_checks_a_given_circle_against_the_rim() {
     let root = tmp("given-circle");
     let data = root.join("data");
-    let (ok, _, err) = photostereo(&[
-        "-q",
-        "synth",
-        "--material",
-        "plastic",
-        "-k",
-        "12",
-        "--size",
-        "48",
-        "-o",
-        s(&data),
-        "--calib-sphere",
-        "30",
-    ]);
-    assert!(ok, "synth failed: {err}");
+    synth_plastic_with_a_sphere(&data);
     let sphere = data.join("sphere");
     let side = io::load_dataset(&sphere, &io::LoadOptions::default())
         .unwrap()

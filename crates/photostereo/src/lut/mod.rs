@@ -172,7 +172,7 @@ pub struct Options {
     /// t ≈ a·D(n) + b·S(n), a, b ≥ 0 (`diffuse.rs`; the two-material mixture with one
     /// sphere). a, the diffuse albedo relative to the sphere's, is returned in
     /// [`Output::albedo`], (a, b) in [`Output::weights`]. Slower than `normalize` (the
-    /// mixture's exhaustive search runs at every pixel). Default false.
+    /// mixture's search, `search/mixture.rs`). Default false.
     pub split_specular: bool,
 }
 

@@ -147,9 +147,7 @@ impl<'a> Model<'a> {
             };
             return ([c, 0.0], cost1(t, a, c, w));
         }
-        let (ta, aa) = dot2(t, a, w);
-        let (tb, bb) = dot2(t, b, w);
-        let ab = dotw(a, b, w);
+        let [ta, tb, aa, bb, ab] = gram5(t, a, b, w);
         let coef = nnls2(ta, tb, aa, bb, ab);
         (coef, cost2(t, a, b, coef, w))
     }
@@ -535,13 +533,58 @@ fn cost1(t: &[f32], a: &[f32], c: f32, w: Option<&[f32]>) -> f32 {
 
 #[inline]
 fn cost2(t: &[f32], a: &[f32], b: &[f32], c: [f32; 2], w: Option<&[f32]>) -> f32 {
-    let mut sum = 0.0;
-    for i in 0..t.len() {
-        let wi = w.map_or(1.0, |w| w[i]);
-        let r = t[i] - c[0] * a[i] - c[1] * b[i];
-        sum += wi * r * r;
+    let n = t.len().min(a.len()).min(b.len());
+    let (t, a, b) = (&t[..n], &a[..n], &b[..n]);
+    let r = |i: usize| t[i] - c[0] * a[i] - c[1] * b[i];
+    match w {
+        None => lane_sum(n, |i| r(i) * r(i)),
+        Some(w) => {
+            let w = &w[..n];
+            lane_sum(n, |i| w[i] * r(i) * r(i))
+        }
     }
-    sum
+}
+
+/// The Gram entries [⟨t,a⟩, ⟨t,b⟩, ⟨a,a⟩, ⟨b,b⟩, ⟨a,b⟩] (weighted by `w`) in one pass
+/// over the lights, 8 lanes each.
+#[inline]
+pub(crate) fn gram5(t: &[f32], a: &[f32], b: &[f32], w: Option<&[f32]>) -> [f32; 5] {
+    let n = t.len().min(a.len()).min(b.len());
+    let (t, a, b) = (&t[..n], &a[..n], &b[..n]);
+    let mut acc = [[0.0f32; 8]; 5];
+    let full = n / 8 * 8;
+    let mut add = |i: usize, l: usize, wi: f32| {
+        let (ti, ai, bi) = (t[i] * wi, a[i], b[i]);
+        acc[0][l] += ti * ai;
+        acc[1][l] += ti * bi;
+        acc[2][l] += wi * ai * ai;
+        acc[3][l] += wi * bi * bi;
+        acc[4][l] += wi * ai * bi;
+    };
+    match w {
+        None => {
+            for base in (0..full).step_by(8) {
+                for l in 0..8 {
+                    add(base + l, l, 1.0);
+                }
+            }
+            for i in full..n {
+                add(i, 0, 1.0);
+            }
+        }
+        Some(w) => {
+            let w = &w[..n];
+            for base in (0..full).step_by(8) {
+                for l in 0..8 {
+                    add(base + l, l, w[base + l]);
+                }
+            }
+            for (i, &wi) in w.iter().enumerate().skip(full) {
+                add(i, 0, wi);
+            }
+        }
+    }
+    acc.map(|lanes| lanes.iter().sum())
 }
 
 /// Non-negative least squares for min ‖t − a·A − b·B‖² given the Gram entries

@@ -10,6 +10,7 @@ use crate::image::normalize;
 use std::sync::atomic::AtomicU32;
 
 mod certify;
+mod mixture;
 use certify::UNSET;
 
 /// Target number of points of the coarse grid used by the exhaustive searches.
@@ -181,6 +182,10 @@ pub(crate) struct Solver<'a> {
     /// Isolation radius of each entry as f32 bits, computed when first needed
     /// ([`UNSET`] before; see `certified`; one table, refined lookup).
     isolation: Vec<AtomicU32>,
+    /// The coarse grid in the mixture's scan layout (two tables only).
+    mixture: Option<mixture::Scan>,
+    /// The mixture runs its exhaustive search at every pixel (no warm start; tests).
+    exhaustive_only: bool,
 }
 
 impl<'a> Solver<'a> {
@@ -221,6 +226,7 @@ impl<'a> Solver<'a> {
             let (r, c) = (*r as usize - t0.window.row0, *c as usize - t0.window.col0);
             entries_at[r * ws.width + c] = e as u32;
         }
+        let mixture = model.is_mix().then(|| mixture::Scan::new(&coarse_basis, k));
         Solver {
             model,
             opts,
@@ -234,6 +240,8 @@ impl<'a> Solver<'a> {
             peaks,
             rim,
             isolation: (0..n).map(|_| AtomicU32::new(UNSET)).collect(),
+            mixture,
+            exhaustive_only: false,
         }
     }
 
@@ -304,7 +312,7 @@ impl<'a> Solver<'a> {
         match (&self.index, self.opts.method) {
             (Some(index), Method::Refined) => self.checked_fit(index, wk),
             (Some(index), _) => self.tree_match(index, None, false, wk),
-            (None, _) => self.exhaustive(false, wk),
+            (None, _) => self.mixture_first_fit(wk),
         }
     }
 
@@ -500,8 +508,9 @@ impl<'a> Solver<'a> {
             warm.masked = true;
             wk.prev_w.copy_from_slice(&wk.w);
         } else {
-            wk.s.warm = None;
-            return;
+            // the mixture: its search checks any start, so only the step is forgotten
+            (warm.dgx, warm.dgy) = (0.0, 0.0);
+            warm.masked = false;
         }
         (warm.gx, warm.gy) = (gx, gy);
     }
@@ -621,6 +630,9 @@ impl<'a> Solver<'a> {
     /// passes the coherence test; otherwise the exhaustive search, keeping the better of
     /// the two.
     fn masked_search(&self, from: Fit, wk: &mut Work) -> Fit {
+        if self.model.is_mix() {
+            return self.mixture_fit(true, Some(from), wk);
+        }
         let k = self.model.k;
         let (t, w) = (&wk.t[..k], &wk.w[..k]);
         let start = self.model.eval(t, Some(w), from.gx, from.gy, &mut wk.s);

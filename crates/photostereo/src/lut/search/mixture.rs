@@ -1,0 +1,487 @@
+//! The mixture's search (two tables, or one table split into diffuse and specular
+//! parts): t ≈ a·A(n) + b·B(n), a, b ≥ 0 (parent module docs).
+//!
+//! **Exhaustive search.** Every point of the coarse grid (about 1500 positions inside
+//! the search disc) is scored by the cost of its 2-variable non-negative least-squares
+//! fit; a pattern descent runs from the best [`COARSE_KEEP`] down to half a pixel and the
+//! refinement (Gauss–Newton with variable projection and the pattern polish, `model.rs`)
+//! from the best of those. The scan is cheap: the tables' tuples at the grid points are
+//! stored padded to the vector width and their Gram entries ⟨A,A⟩, ⟨B,B⟩, ⟨A,B⟩ are
+//! precomputed, so a point costs two dot products (⟨t,A⟩, ⟨t,B⟩) and the cost comes from
+//! the Gram entries, cost = ‖t‖² − 2(a⟨t,A⟩ + b⟨t,B⟩) + a²⟨A,A⟩ + 2ab⟨A,B⟩ + b²⟨B,B⟩
+//! (with cast-shadowed lights dropped, the weighted Gram entries are computed per pixel).
+//!
+//! **Warm start under a global check.** Most pixels skip the descents: the refinement
+//! starts from the previous pixel's solution in the row (extrapolated by its step), and
+//! that fit f is kept when the scan confirms it, i.e. when
+//! 1. f costs no more than the best coarse point p₀ (so no grid point fits better), and
+//! 2. f lies within [`BASIN`] coarse steps of p₀ (f is the minimum of p₀'s basin, which
+//!    is where the exhaustive search's descent from p₀ would go), and
+//! 3. every other kept coarse point farther than that from f is descended from and
+//!    refined as in the exhaustive search; a better fit there replaces f.
+//!
+//! Otherwise the exhaustive search runs and the better of its answer and f is kept. So
+//! every pixel fits at least as well as the best grid point of the whole table, and the
+//! starts the exhaustive search would explore are explored: a wrong fit cannot be
+//! carried along a row. `tests` checks the answers against the exhaustive search on
+//! every pixel of a synthetic scene.
+
+use super::{Fit, Solver, Warm, Work, COARSE_KEEP};
+use crate::lut::model::gram5;
+
+/// Distance (coarse steps) from the best coarse point within which a fit counts as
+/// lying in its basin.
+const BASIN: f64 = 1.5;
+
+/// Grid points per block of the scan (one vector lane each).
+const LANES: usize = 8;
+
+/// The coarse grid's tuples in the scan's layout: blocks of [`LANES`] points, light by
+/// light (so that a block's dot products with the target are [`LANES`]-wide
+/// multiply-adds), with each point's Gram entries and the quantities that turn
+/// (⟨t,A⟩, ⟨t,B⟩) into the explained energy without a division.
+pub(super) struct Scan {
+    k: usize,
+    /// Grid points (the last block is padded with points that are never kept).
+    points: usize,
+    /// Per block, per light: the [`LANES`] points' samples of table 0, then of table 1.
+    tuples: Vec<[f32; LANES]>,
+    /// Per block: ⟨A,A⟩, ⟨B,B⟩, ⟨A,B⟩, and ⟨B,B⟩/det, ⟨A,A⟩/det, ⟨A,B⟩/det (0 where the
+    /// pair is degenerate), 1/⟨A,A⟩, 1/⟨B,B⟩ (0 where the tuple is 0).
+    gram: Vec<[[f32; LANES]; 8]>,
+    /// The processor has AVX.
+    avx: bool,
+}
+
+impl Scan {
+    /// The layout of the coarse grid's tuples `basis` (K values per point and table).
+    pub(super) fn new(basis: &[Vec<f32>; 2], k: usize) -> Self {
+        let points = basis[0].len() / k.max(1);
+        let blocks = points.div_ceil(LANES);
+        let mut tuples = vec![[0.0f32; LANES]; blocks * 2 * k];
+        let mut gram = vec![[[0.0f32; LANES]; 8]; blocks];
+        for j in 0..points {
+            let (blk, l) = (j / LANES, j % LANES);
+            let (a, b) = (&basis[0][j * k..(j + 1) * k], &basis[1][j * k..(j + 1) * k]);
+            for i in 0..k {
+                tuples[(blk * 2) * k + i][l] = a[i];
+                tuples[(blk * 2 + 1) * k + i][l] = b[i];
+            }
+            let [_, _, aa, bb, ab] = gram5(a, a, b, None);
+            let g = &mut gram[blk];
+            [g[0][l], g[1][l], g[2][l]] = [aa, bb, ab];
+            [g[3][l], g[4][l], g[5][l]] = pair_inverse(aa, bb, ab);
+            g[6][l] = if aa > 0.0 { 1.0 / aa } else { 0.0 };
+            g[7][l] = if bb > 0.0 { 1.0 / bb } else { 0.0 };
+        }
+        #[cfg(target_arch = "x86_64")]
+        let avx = std::is_x86_feature_detected!("avx");
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx = false;
+        Scan {
+            k,
+            points,
+            tuples,
+            gram,
+            avx,
+        }
+    }
+
+    /// The [`COARSE_KEEP`] grid points of lowest cost for the target `t` with the
+    /// weights `w` (None: all lights), as (cost, point), best first. The cost is that of
+    /// the point's non-negative least-squares fit (`model::nnls2`), ‖t‖² minus the energy the
+    /// fit explains.
+    fn best(&self, t: &[f32], w: Option<&[f32]>) -> [(f32, usize); COARSE_KEEP] {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is set only where the processor reports AVX (`Scan::new`)
+            return unsafe { self.best_avx(t, w) };
+        }
+        self.best_with(t, w)
+    }
+
+    /// [`Scan::best`] compiled for AVX (8 lanes per instruction instead of 4).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn best_avx(&self, t: &[f32], w: Option<&[f32]>) -> [(f32, usize); COARSE_KEEP] {
+        self.best_with(t, w)
+    }
+
+    /// The body of [`Scan::best`], inlined into each instruction set's version.
+    #[inline(always)]
+    fn best_with(&self, t: &[f32], w: Option<&[f32]>) -> [(f32, usize); COARSE_KEEP] {
+        let k = self.k;
+        let t = &t[..k];
+        let mut tw = [0.0f32; 64];
+        let tt: f32 = match w {
+            None => t.iter().map(|v| v * v).sum(),
+            Some(w) => t.iter().zip(w).map(|(v, w)| w * v * v).sum(),
+        };
+        let mut keep = [(f32::INFINITY, 0usize); COARSE_KEEP];
+        let mut cost = [0.0f32; LANES];
+        for (blk, g) in self.gram.iter().enumerate() {
+            let (a, b) = self.tuples[blk * 2 * k..(blk + 1) * 2 * k].split_at(k);
+            match w {
+                None => block_cost(t, a, b, g, tt, &mut cost),
+                Some(w) if k <= tw.len() => {
+                    let g = weighted_gram(a, b, &w[..k]);
+                    for ((d, x), y) in tw.iter_mut().zip(t).zip(w) {
+                        *d = x * y;
+                    }
+                    block_cost(&tw[..k], a, b, &g, tt, &mut cost)
+                }
+                Some(w) => {
+                    let g = weighted_gram(a, b, &w[..k]);
+                    let tw: Vec<f32> = t.iter().zip(w).map(|(x, y)| x * y).collect();
+                    block_cost(&tw, a, b, &g, tt, &mut cost)
+                }
+            }
+            for (l, &c) in cost.iter().enumerate() {
+                let j = blk * LANES + l;
+                if c < keep[COARSE_KEEP - 1].0 && j < self.points {
+                    keep[COARSE_KEEP - 1] = (c, j);
+                    keep.sort_by(|x, y| x.0.total_cmp(&y.0));
+                }
+            }
+        }
+        keep
+    }
+}
+
+/// (⟨B,B⟩, ⟨A,A⟩, ⟨A,B⟩) / det of the pair's Gram matrix, zeros where it is degenerate
+/// (the test of `model::nnls2`).
+#[inline]
+fn pair_inverse(aa: f32, bb: f32, ab: f32) -> [f32; 3] {
+    let det = aa * bb - ab * ab;
+    if det > 1e-12 * (aa * bb).max(1e-30) {
+        [bb / det, aa / det, ab / det]
+    } else {
+        [0.0; 3]
+    }
+}
+
+/// A block's Gram entries with weights `w` (the layout of [`Scan::gram`]).
+#[inline(always)]
+fn weighted_gram(a: &[[f32; LANES]], b: &[[f32; LANES]], w: &[f32]) -> [[f32; LANES]; 8] {
+    let mut g = [[0.0f32; LANES]; 8];
+    for ((x, y), &wi) in a.iter().zip(b).zip(w) {
+        for l in 0..LANES {
+            g[0][l] += wi * x[l] * x[l];
+            g[1][l] += wi * y[l] * y[l];
+            g[2][l] += wi * x[l] * y[l];
+        }
+    }
+    let (aa, bb, ab) = (g[0], g[1], g[2]);
+    for (l, ((&x, &y), &z)) in aa.iter().zip(&bb).zip(&ab).enumerate() {
+        [g[3][l], g[4][l], g[5][l]] = pair_inverse(x, y, z);
+        g[6][l] = if x > 0.0 { 1.0 / x } else { 0.0 };
+        g[7][l] = if y > 0.0 { 1.0 / y } else { 0.0 };
+    }
+    g
+}
+
+/// The non-negative least-squares cost of a block's points for the (weighted) target
+/// `t`, ‖t‖² = `tt`: the unconstrained fit's explained energy
+/// ⟨t,A⟩²·⟨B,B⟩/det − 2⟨t,A⟩⟨t,B⟩·⟨A,B⟩/det + ⟨t,B⟩²·⟨A,A⟩/det when both of its
+/// weights are ≥ 0, else the larger of the one-table fits' max(0, ⟨t,X⟩)²/⟨X,X⟩.
+#[inline(always)]
+fn block_cost(
+    t: &[f32],
+    a: &[[f32; LANES]],
+    b: &[[f32; LANES]],
+    g: &[[f32; LANES]; 8],
+    tt: f32,
+    cost: &mut [f32; LANES],
+) {
+    let dot = |rows: &[[f32; LANES]]| {
+        let mut acc = [0.0f32; LANES];
+        for (x, &ti) in rows.iter().zip(t) {
+            for l in 0..LANES {
+                acc[l] += ti * x[l];
+            }
+        }
+        acc
+    };
+    let (ta, tb) = (dot(a), dot(b));
+    for l in 0..LANES {
+        let (aa, bb, ab) = (g[0][l], g[1][l], g[2][l]);
+        let (pbb, paa, pab) = (g[3][l], g[4][l], g[5][l]);
+        let (x, y) = (ta[l], tb[l]);
+        let both = pbb > 0.0 && x * bb - y * ab >= 0.0 && y * aa - x * ab >= 0.0;
+        let pair = x * x * pbb - 2.0 * x * y * pab + y * y * paa;
+        let (xa, yb) = (x.max(0.0), y.max(0.0));
+        let single = (xa * xa * g[6][l]).max(yb * yb * g[7][l]);
+        cost[l] = tt - if both { pair } else { single };
+    }
+}
+
+impl Solver<'_> {
+    /// The mixture's fit with the weights in `wk.w` (`weighted`) or all lights, from the
+    /// warm start `from` when there is one, under the global check of the module docs;
+    /// the exhaustive search otherwise.
+    pub(super) fn mixture_fit(&self, weighted: bool, from: Option<Fit>, wk: &mut Work) -> Fit {
+        let Some(scan) = self.mixture.as_ref() else {
+            return self.exhaustive(weighted, wk);
+        };
+        let k = self.model.k;
+        let w = weighted.then_some(&wk.w[..]);
+        let keep = scan.best(&wk.t, w);
+        let warm = from.filter(|_| !self.exhaustive_only).map(|start| {
+            let start = Fit {
+                cost: f32::INFINITY,
+                ..start
+            };
+            let w = weighted.then_some(&wk.w[..k]);
+            let iters = self.opts.max_iterations;
+            self.model.refine(&wk.t[..k], w, start, iters, &mut wk.s)
+        });
+        if let Some(f) = warm.filter(|f| f.cost <= keep[0].0 && self.in_basin(f, keep[0].1)) {
+            let mut best = f;
+            for &(c, j) in &keep[1..] {
+                if c.is_finite() && !self.in_basin(&f, j) {
+                    let g = self.descend_refine(weighted, &[(c, j)], wk);
+                    if g.cost < best.cost {
+                        best = g;
+                    }
+                }
+            }
+            return best;
+        }
+        let g = self.descend_refine(weighted, &keep, wk);
+        match warm {
+            Some(f) if f.cost < g.cost => f,
+            _ => g,
+        }
+    }
+
+    /// Fit `f` lies within [`BASIN`] coarse steps of coarse point `j`.
+    fn in_basin(&self, f: &Fit, j: usize) -> bool {
+        let (gx, gy) = self.coarse_pos[j];
+        let r = BASIN * self.coarse_step;
+        (f.gx - gx).powi(2) + (f.gy - gy).powi(2) <= r * r
+    }
+
+    /// The exhaustive search's second half: pattern descent from each kept coarse point
+    /// down to half a pixel, then the refinement from the best of those.
+    fn descend_refine(&self, weighted: bool, keep: &[(f32, usize)], wk: &mut Work) -> Fit {
+        let k = self.model.k;
+        let (t, s) = (&wk.t[..k], &mut wk.s);
+        let w = weighted.then_some(&wk.w[..k]);
+        let mut best: Option<Fit> = None;
+        for &(_, j) in keep.iter().filter(|c| c.0.is_finite()) {
+            let (gx, gy) = self.coarse_pos[j];
+            let start = self.model.eval(t, w, gx, gy, s);
+            let f = self.model.descend(t, w, start, self.coarse_step / 2.0, s);
+            if best.is_none_or(|b| f.cost < b.cost) {
+                best = Some(f);
+            }
+        }
+        let start = best.unwrap_or_else(|| {
+            let (gx, gy) = self.coarse_pos[0];
+            self.model.eval(t, w, gx, gy, s)
+        });
+        let iters = self.opts.max_iterations;
+        self.model.refine(t, w, start, iters, s)
+    }
+
+    /// The mixture's first fit on all lights: from the previous pixel's solution
+    /// (extrapolated by its step) when there is one.
+    pub(super) fn mixture_first_fit(&self, wk: &mut Work) -> Fit {
+        let from = wk.s.warm.map(|w| Fit {
+            gx: w.gx + w.dgx,
+            gy: w.gy + w.dgy,
+            coef: [0.0; 2],
+            cost: f32::INFINITY,
+        });
+        let fit = self.mixture_fit(false, from, wk);
+        if wk.s.warm.is_none() {
+            wk.s.warm = Some(Warm::at(fit.gx, fit.gy));
+        }
+        fit
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{PixelOut, Solver, Work};
+    use crate::image::{dot3, ImageStack, Mask, NormalMap};
+    use crate::lut::table::{BuildOptions, Table};
+    use crate::lut::{diffuse, model::Model, Options};
+    use crate::sphere::Circle;
+    use crate::synth::{self, Material, SceneOptions, Shape, ShapeKind};
+
+    const SIZE: usize = 128;
+
+    fn scene(material: Material, texture: bool) -> SceneOptions {
+        SceneOptions {
+            width: SIZE,
+            height: SIZE,
+            shape: Shape::preset(ShapeKind::Vase, SIZE, SIZE),
+            material,
+            albedo_texture: texture,
+            seed: 5,
+            ..SceneOptions::default()
+        }
+    }
+
+    fn table(material: Material) -> Table {
+        let opts = SceneOptions {
+            seed: 99,
+            ..scene(material, false)
+        };
+        let sphere = synth::render_calibration_sphere(&opts, 60.0).unwrap();
+        let half = sphere.stack.width as f64 / 2.0;
+        let circle = Circle {
+            cx: half,
+            cy: half,
+            radius: 60.0,
+        };
+        let build = BuildOptions {
+            rim: 1.0,
+            ..BuildOptions::default()
+        };
+        Table::build(&sphere.stack, &circle, &build).unwrap()
+    }
+
+    /// Every mask pixel solved as `lut::solve` does (row by row, the warm start reset at
+    /// row starts and gaps), with or without the warm start.
+    fn run(
+        stack: &ImageStack,
+        mask: &Mask,
+        tables: &[Table],
+        opts: &Options,
+        exhaustive: bool,
+    ) -> Vec<PixelOut> {
+        let mut solver = Solver::new(Model::new(tables, opts.normalize), opts);
+        solver.exhaustive_only = exhaustive;
+        let mut out = Vec::new();
+        for r in 0..stack.height {
+            let mut wk = Work::new(stack.k);
+            for c in 0..stack.width {
+                if !*mask.get(r, c) {
+                    wk.s.warm = None;
+                    continue;
+                }
+                wk.t[..stack.k].copy_from_slice(stack.pixel(r, c));
+                out.push(solver.pixel(&mut wk));
+            }
+        }
+        out
+    }
+
+    /// Mean angle (degrees) between the normals in `out` and `truth` over the mask.
+    fn mean_error(out: &[PixelOut], truth: &NormalMap, mask: &Mask) -> f64 {
+        let inside = (0..mask.data.len()).filter(|&i| mask.data[i]);
+        let sum: f64 = inside
+            .zip(out)
+            .map(|(i, o)| angle(o.normal, truth.data[i]))
+            .sum();
+        sum / out.len().max(1) as f64
+    }
+
+    fn angle(a: [f32; 3], b: [f32; 3]) -> f64 {
+        (dot3(a, b) as f64).clamp(-1.0, 1.0).acos().to_degrees()
+    }
+
+    /// (mean angle between the two answers' normals in degrees, share of pixels over
+    /// 0.1°, shares whose RMS residual is worse than the exhaustive one's by more than
+    /// 0.1% and 0.3% of the pixel's RMS brightness).
+    fn agreement(
+        stack: &ImageStack,
+        mask: &Mask,
+        fast: &[PixelOut],
+        slow: &[PixelOut],
+    ) -> (f64, f64, [f64; 2]) {
+        let inside = (0..mask.data.len()).filter(|&i| mask.data[i]);
+        let (mut sum, mut off, mut worse) = (0.0f64, 0usize, [0usize; 2]);
+        for ((i, f), s) in inside.zip(fast).zip(slow) {
+            let t = stack.pixel_flat(i);
+            let rms = (t.iter().map(|v| v * v).sum::<f32>() / t.len() as f32).sqrt();
+            let e = angle(f.normal, s.normal);
+            sum += e;
+            off += (e > 0.1) as usize;
+            worse[0] += (f.residual > s.residual + 1e-3 * rms) as usize;
+            worse[1] += (f.residual > s.residual + 3e-3 * rms) as usize;
+        }
+        let n = fast.len().max(1) as f64;
+        (sum / n, off as f64 / n, worse.map(|w| w as f64 / n))
+    }
+
+    /// The warm start under the global check gives the exhaustive search's answers:
+    /// two materials blended (two tables) and a textured plastic (split table).
+    #[test]
+    fn warm_start_agrees_with_the_exhaustive_search() {
+        let (ma, mb) = (Material::lambertian(0.8), Material::shiny_plastic());
+        let a = synth::render(&scene(ma, false)).unwrap();
+        let b = synth::render(&scene(mb, false)).unwrap();
+        let mut blend = a.stack.clone();
+        for i in 0..blend.pixels() {
+            let t = 0.1 + 0.8 * (i % SIZE) as f32 / (SIZE - 1) as f32;
+            for (o, v) in blend
+                .pixel_flat_mut(i)
+                .iter_mut()
+                .zip(b.stack.pixel_flat(i))
+            {
+                *o = t * *o + (1.0 - t) * v;
+            }
+        }
+        let two = [diffuse::extend(&table(ma)), diffuse::extend(&table(mb))];
+        let ggx = Material::Ggx {
+            kd: 0.7,
+            ks: 0.04,
+            roughness: 0.1,
+        };
+        let textured = synth::render(&scene(ggx, true)).unwrap();
+        let split = diffuse::split(&table(ggx));
+        let cases = [
+            (
+                "two materials",
+                &blend,
+                &a.mask,
+                &a.normals,
+                &two,
+                Options::default(),
+            ),
+            (
+                "textured plastic, split",
+                &textured.stack,
+                &textured.mask,
+                &textured.normals,
+                &split,
+                Options {
+                    normalize: true,
+                    split_specular: true,
+                    ..Options::default()
+                },
+            ),
+        ];
+        for (name, stack, mask, truth, tables, opts) in cases {
+            let fast = run(stack, mask, tables, &opts, false);
+            let slow = run(stack, mask, tables, &opts, true);
+            let (apart, off, worse) = agreement(stack, mask, &fast, &slow);
+            let (e_fast, e_slow) = (
+                mean_error(&fast, truth, mask),
+                mean_error(&slow, truth, mask),
+            );
+            println!(
+                "{name}: {} px, error {e_fast:.4}° (exhaustive {e_slow:.4}°), normals apart by \
+                 {apart:.4}° on average, {:.2}% over 0.1°; residual worse by 0.1% / 0.3% of \
+                 the brightness on {:.3}% / {:.3}% of the pixels",
+                fast.len(),
+                100.0 * off,
+                100.0 * worse[0],
+                100.0 * worse[1]
+            );
+            // measured: two materials 0.0248° (exhaustive 0.0286°), apart by 0.0169° on
+            // average, 4.7% over 0.1° (where the two materials are nearly alike, the
+            // cost's valley is flat), residual worse by 0.1% of the brightness on 0.40%
+            // of the pixels, by 0.3% on none; split 0.0200° (0.0203°), apart 0.0030°,
+            // 0.05% over 0.1°, none worse by 0.1%
+            assert!(e_fast <= 1.1 * e_slow + 0.002, "{name}");
+            assert!(
+                apart < 0.05 && off < 0.1 && worse[0] < 0.01 && worse[1] == 0.0,
+                "{name}"
+            );
+        }
+    }
+}
