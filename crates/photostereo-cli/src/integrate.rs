@@ -197,6 +197,12 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             "gradient residual (RMS per pixel step): {:.4}",
             out.info.residual
         );
+        if let Method::Lsq = method {
+            println!(
+                "lsq: {} conjugate-gradient iterations (0: solved by sparse Cholesky)",
+                out.info.iterations
+            );
+        }
         if let Method::Bilateral { .. } = method {
             println!(
                 "bini: {} reweighting iterations ({} CG), {} discontinuity edges",

@@ -16,7 +16,9 @@
 //!    components (`pca_dims`) and put in a KD-tree ([`index`]); the `candidates`
 //!    nearest entries there are re-ranked on the full K-dimensional cost, and step 2
 //!    refines the best. Most pixels skip the tree (*coherence*, one table): Gauss–Newton
-//!    starts from the previous pixel's solution in the row, extrapolated by its step.
+//!    starts from the previous pixel's solution in the row, extrapolated by its step
+//!    (the solution corrected by its last Gauss–Newton step, the one below the stopping
+//!    length that the refinement does not take: a better estimate of its minimum).
 //!    **No wrong fit is accepted:** that fit f is kept only with a certificate that no
 //!    table entry more than 4.5 px from it fits the target better. Each entry e at an
 //!    even grid point carries an *isolation radius* ρ(e), the projected distance to the

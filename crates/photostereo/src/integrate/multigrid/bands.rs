@@ -19,9 +19,10 @@
 //! to each boundary after the bands have joined.
 //!
 //! CG's passes are fused with the cycle's: the update r ← r − α A p runs row by row just
-//! ahead of the forward sweep that reads r, and the updates x ← x + α p, p ← z + β p run
-//! one row ahead of the product A p of the next iteration (see `System::cg`). These
-//! change nothing but the number of passes over memory.
+//! ahead of the forward sweep that reads r, computing A p again from p on the fly (three
+//! rows of p in cache) instead of storing it, and the updates x ← x + α p, p ← z + β p
+//! run one row ahead of the product p·A p of the next iteration (see `System::cg`).
+//! These change nothing but the number of passes over memory (and the rounding).
 
 use super::sweep::dot4;
 use super::{Level, System};
@@ -62,9 +63,81 @@ fn run<T: Send>(items: Vec<T>, f: impl Fn(usize, T) -> f64 + Sync) -> f64 {
 }
 
 /// b ← b + a·x; returns ‖b‖² (four partial sums).
+#[inline(always)]
 fn axpy_sq(b: &mut [f64], x: &[f64], a: f64) -> f64 {
     b.iter_mut().zip(x).for_each(|(bi, &xi)| *bi += a * xi);
     dot4(b, b)
+}
+
+/// A method `$name(&self, args) -> f64` that runs `$imp` compiled for AVX2 (as
+/// `$avx`) where the processor has it, checked at run time, and compiled for the x86-64
+/// baseline (SSE2) otherwise. `$imp` and every kernel it calls are `inline(always)`, so
+/// all of them are compiled both ways. Both builds do the same operations in the same
+/// order (Rust never fuses a multiply and an add, nor reorders a sum), so their results
+/// are identical: AVX2 only widens the vectorised loops from two lanes to four.
+macro_rules! dispatch {
+    ($name:ident, $avx:ident, $imp:ident, ($($arg:ident: $ty:ty),*)) => {
+        #[allow(clippy::too_many_arguments)]
+        fn $name(&self, $($arg: $ty),*) -> f64 {
+            #[cfg(target_arch = "x86_64")]
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: the processor has AVX2 (checked just above), the only
+                // requirement of `$avx`.
+                return unsafe { self.$avx($($arg),*) };
+            }
+            self.$imp($($arg),*)
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        #[allow(clippy::too_many_arguments)]
+        fn $avx(&self, $($arg: $ty),*) -> f64 {
+            self.$imp($($arg),*)
+        }
+    };
+}
+
+impl Level {
+    dispatch!(
+        forward_band,
+        forward_band_avx2,
+        forward_band_impl,
+        (
+            rows: (usize, usize),
+            c0: usize,
+            upd: Option<(f64, &[f64])>,
+            b: &mut [f64],
+            x: &mut [f64],
+            coarse: &Level,
+            rc: &mut [f64]
+        )
+    );
+    dispatch!(
+        backward_band,
+        backward_band_avx2,
+        backward_band_impl,
+        (
+            rows: (usize, usize),
+            b: &[f64],
+            xc: &[f64],
+            coarse: &Level,
+            x: &mut [f64],
+            up: &[f64],
+            dn: &[f64]
+        )
+    );
+    dispatch!(
+        update_band,
+        update_band_avx2,
+        update_band_impl,
+        (
+            rows: (usize, usize),
+            step: Option<(f64, f64)>,
+            x: &mut [f64],
+            p: &mut [f64],
+            z: &[f64]
+        )
+    );
 }
 
 impl Level {
@@ -89,8 +162,9 @@ impl Level {
     }
 
     /// The forward sweep from zero, x = (D + L_B)⁻¹ b, and the restriction of its
-    /// residual into `rc` (r_c = Pᵀ r). With `upd` = (α, ap), b ← b − α ap first, row by
-    /// row; returns ‖b‖² then (0 otherwise).
+    /// residual into `rc` (r_c = Pᵀ r). With `upd` = (α, p), b ← b − α A p first (A
+    /// without its masses: the caller applies those), each row just before the sweep
+    /// reads it, A p computed on the fly from p; returns ‖b‖² then (0 otherwise).
     pub(super) fn forward(
         &self,
         upd: Option<(f64, &[f64])>,
@@ -134,7 +208,8 @@ impl Level {
     /// [`Level::forward`] on the rows [a, e) of one band (`b`, `x` hold those rows,
     /// `rc` the band's coarse rows from padded row `c0`).
     #[allow(clippy::too_many_arguments)]
-    fn forward_band(
+    #[inline(always)]
+    fn forward_band_impl(
         &self,
         (a, e): (usize, usize),
         c0: usize,
@@ -144,22 +219,25 @@ impl Level {
         coarse: &Level,
         rc: &mut [f64],
     ) -> f64 {
-        let (w, s) = (self.w, self.stride());
+        let s = self.stride();
         rc.iter_mut().for_each(|v| *v = 0.0);
         let zero = vec![0.0; s];
+        // Scratch row for A p (stays in the L1 cache).
+        let mut y = vec![0.0; s];
         let mut rr = 0.0;
-        if let Some((alpha, ap)) = upd {
-            for r in a..e {
-                let br = &mut b[(r - a) * s + 1..(r - a) * s + 1 + w];
-                rr += axpy_sq(br, &ap[r * s + 1..r * s + 1 + w], -alpha);
-            }
-        }
         let mut r = a;
         while r < e {
             let k = (r - a) * s;
+            let pair = r + 1 < e;
+            if let Some((alpha, p)) = upd {
+                for q in r..if pair { r + 2 } else { r + 1 } {
+                    let kq = (q - a) * s;
+                    rr += self.sub_ap_row(q, alpha, p, &mut b[kq..kq + s], &mut y);
+                }
+            }
             let (done, rest) = x.split_at_mut(k);
             let above = if r > a { &done[k - s..] } else { &zero[..] };
-            if r + 1 < e {
+            if pair {
                 let (cur0, cur1) = rest[..2 * s].split_at_mut(s);
                 self.fwd_pair(r, (&b[k..k + s], &b[k + s..k + 2 * s]), above, cur0, cur1);
                 if r > a {
@@ -184,6 +262,7 @@ impl Level {
 
     /// Adds the forward residual of row r, east_i x_{i+1} + south_i x_{i+s} (`xr`, `xd`:
     /// rows r and r + 1), to its block sums in `rc` (coarse rows from padded row `c0`).
+    #[inline(always)]
     fn restrict_row(
         &self,
         r: usize,
@@ -198,10 +277,24 @@ impl Level {
             &self.east[r * s..(r + 1) * s],
             &self.south[r * s..(r + 1) * s],
         );
-        let inc = &self.incl[r * s..(r + 1) * s];
         let (xr, xd) = (&xr[..s], &xd[..s]);
         let cbase = ((r - 1) / 2 + 1 - c0) * coarse.stride() + 1;
         let crow = &mut rc[cbase..cbase + coarse.w];
+        if self.clean[r] {
+            // Pairs of cells 2j + 1, 2j + 2 (slices of one length: no bounds checks).
+            let n = 2 * (w / 2);
+            let (ep, sp, xn, xdp) = (&e[1..=n], &so[1..=n], &xr[2..n + 2], &xd[1..=n]);
+            for (j, out) in crow[..w / 2].iter_mut().enumerate() {
+                let (a, b) = (2 * j, 2 * j + 1);
+                *out += (ep[a] as f64 * xn[a] + sp[a] as f64 * xdp[a])
+                    + (ep[b] as f64 * xn[b] + sp[b] as f64 * xdp[b]);
+            }
+            if w % 2 == 1 {
+                crow[w / 2] += e[w] as f64 * xr[w + 1] + so[w] as f64 * xd[w];
+            }
+            return;
+        }
+        let inc = &self.incl[r * s..(r + 1) * s];
         let res = |c: usize| {
             let v = e[c] as f64 * xr[c + 1] + so[c] as f64 * xd[c];
             if inc[c] {
@@ -220,10 +313,22 @@ impl Level {
     }
 
     /// row += (P x_c) on row r.
+    #[inline(always)]
     fn prolong_row(&self, xc: &[f64], coarse: &Level, row: &mut [f64], r: usize) {
         let s = self.stride();
         let cbase = ((r - 1) / 2 + 1) * coarse.stride() + 1;
         let crow = &xc[cbase..cbase + coarse.w];
+        if self.clean[r] {
+            let w = self.w;
+            for (pair, &v) in row[1..1 + 2 * (w / 2)].chunks_exact_mut(2).zip(crow) {
+                pair[0] += v;
+                pair[1] += v;
+            }
+            if w % 2 == 1 {
+                row[w] += crow[w / 2];
+            }
+            return;
+        }
         // Cells 2j + 1, 2j + 2 of block j (the last may be the border: never included).
         let n = 2 * coarse.w;
         let inc = &self.incl[r * s + 1..r * s + 1 + n];
@@ -271,7 +376,8 @@ impl Level {
     /// [`Level::backward`] on the rows [a, e) of one band (`x` holds those rows; `up`,
     /// `dn`: the rows above and below it).
     #[allow(clippy::too_many_arguments)]
-    fn backward_band(
+    #[inline(always)]
+    fn backward_band_impl(
         &self,
         (a, e): (usize, usize),
         b: &[f64],
@@ -320,53 +426,77 @@ impl Level {
     }
 
     /// y = A x on row r (Laplacian form, without the masses; `xu`, `xr`, `xd`: rows
-    /// r − 1, r, r + 1); returns Σ x_i y_i over the row.
+    /// r − 1, r, r + 1).
     #[inline(always)]
-    fn apply_row(&self, r: usize, xu: &[f64], xr: &[f64], xd: &[f64], y: &mut [f64]) -> f64 {
-        let s = self.stride();
-        let (e, sd, su) = (
-            &self.east[r * s..(r + 1) * s],
-            &self.south[r * s..(r + 1) * s],
-            &self.south[(r - 1) * s..r * s],
+    fn apply_into(&self, r: usize, xu: &[f64], xr: &[f64], xd: &[f64], y: &mut [f64]) {
+        let (w, s) = (self.w, self.stride());
+        // Slices of one length w (cells 1..=w and their neighbours), so that the loop
+        // has no bounds checks and vectorises.
+        let (e, el) = (
+            &self.east[r * s + 1..=r * s + w],
+            &self.east[r * s..r * s + w],
         );
-        let w = self.w;
-        for c in 1..=w {
-            let xi = xr[c];
-            y[c] = e[c] as f64 * (xi - xr[c + 1])
-                + e[c - 1] as f64 * (xi - xr[c - 1])
-                + sd[c] as f64 * (xi - xd[c])
-                + su[c] as f64 * (xi - xu[c]);
+        let sd = &self.south[r * s + 1..=r * s + w];
+        let su = &self.south[(r - 1) * s + 1..=(r - 1) * s + w];
+        let (xc, xl, xn) = (&xr[1..=w], &xr[..w], &xr[2..w + 2]);
+        let (xu, xd, y) = (&xu[1..=w], &xd[1..=w], &mut y[1..=w]);
+        for i in 0..w {
+            let xi = xc[i];
+            y[i] = e[i] as f64 * (xi - xn[i])
+                + el[i] as f64 * (xi - xl[i])
+                + sd[i] as f64 * (xi - xd[i])
+                + su[i] as f64 * (xi - xu[i]);
         }
-        dot4(&xr[1..=w], &y[1..=w])
     }
 
-    /// [`System::update`] on the rows [a, e) of one band (`x`, `p`, `ap` hold those
-    /// rows). The product on a row next to a boundary is left to the caller.
-    #[allow(clippy::too_many_arguments)]
-    fn update_band(
+    /// Σ x_i (A x)_i over row r (`y`: scratch row).
+    #[inline(always)]
+    fn apply_dot_row(&self, r: usize, xu: &[f64], xr: &[f64], xd: &[f64], y: &mut [f64]) -> f64 {
+        self.apply_into(r, xu, xr, xd, y);
+        dot4(&xr[1..=self.w], &y[1..=self.w])
+    }
+
+    /// b ← b − α (A p) on row r (`b`: that row; `p`: the whole padded vector; `y`:
+    /// scratch row); returns ‖b‖² over the row.
+    #[inline(always)]
+    fn sub_ap_row(&self, r: usize, alpha: f64, p: &[f64], b: &mut [f64], y: &mut [f64]) -> f64 {
+        let (pu, pr, pd) = super::rows(p, self.stride(), r);
+        self.apply_into(r, pu, pr, pd, y);
+        axpy_sq(&mut b[1..=self.w], &y[1..=self.w], -alpha)
+    }
+
+    /// [`System::update`] on the rows [a, e) of one band (`x`, `p` hold those rows).
+    /// The product on a row next to a boundary is left to the caller.
+    #[inline(always)]
+    fn update_band_impl(
         &self,
         (a, e): (usize, usize),
-        alpha: f64,
-        beta: f64,
+        step: Option<(f64, f64)>,
         x: &mut [f64],
         p: &mut [f64],
         z: &[f64],
-        ap: &mut [f64],
     ) -> f64 {
         let (w, s) = (self.w, self.stride());
         let zero = vec![0.0; s];
+        let mut y = vec![0.0; s];
         let defer = |j: usize| (j == a && a > 1) || (j + 1 == e && e <= self.h);
         let mut dot = 0.0;
         for r in a..e {
             let k = (r - a) * s;
-            let zr = &z[r * s..(r + 1) * s];
-            for ((xi, pi), &zi) in x[k + 1..=k + w]
-                .iter_mut()
-                .zip(&mut p[k + 1..=k + w])
-                .zip(&zr[1..=w])
-            {
-                *xi += alpha * *pi;
-                *pi = zi + beta * *pi;
+            let zr = &z[r * s + 1..=r * s + w];
+            match step {
+                Some((alpha, beta)) => {
+                    for ((xi, pi), &zi) in x[k + 1..=k + w]
+                        .iter_mut()
+                        .zip(&mut p[k + 1..=k + w])
+                        .zip(zr)
+                    {
+                        *xi += alpha * *pi;
+                        *pi = zi + beta * *pi;
+                    }
+                }
+                // The first direction: p = z, written without reading p or x.
+                None => p[k + 1..=k + w].copy_from_slice(zr),
             }
             if r > a && !defer(r - 1) {
                 let above = if r - 1 > a {
@@ -375,28 +505,28 @@ impl Level {
                     &zero[..]
                 };
                 let (pr, pd) = (&p[k - s..k], &p[k..k + s]);
-                dot += self.apply_row(r - 1, above, pr, pd, &mut ap[k - s..k]);
+                dot += self.apply_dot_row(r - 1, above, pr, pd, &mut y);
             }
         }
         if !defer(e - 1) {
             let k = (e - 1 - a) * s;
             let above = if e - 1 > a { &p[k - s..k] } else { &zero[..] };
-            dot += self.apply_row(e - 1, above, &p[k..k + s], &zero, &mut ap[k..k + s]);
+            dot += self.apply_dot_row(e - 1, above, &p[k..k + s], &zero, &mut y);
         }
         dot
     }
 }
 
 impl System {
-    /// x ← x + α p, p ← z + β p, ap = A p; returns p·ap (of the new p).
+    /// With `step` = (α, β): x ← x + α p, p ← z + β p; without (the first iteration):
+    /// p = z. Returns p·A p of the new p (A p itself is not stored: the next forward
+    /// sweep computes it again, row by row).
     pub(super) fn update(
         &self,
-        alpha: f64,
-        beta: f64,
+        step: Option<(f64, f64)>,
         x: &mut [f64],
         p: &mut [f64],
         z: &[f64],
-        ap: &mut [f64],
     ) -> f64 {
         let fine = self.fine();
         let s = fine.stride();
@@ -404,15 +534,15 @@ impl System {
         let items: Vec<_> = split(x, &bands, s)
             .into_iter()
             .zip(split(p, &bands, s))
-            .zip(split(ap, &bands, s))
             .collect();
-        let mut dot = run(items, |k, ((xx, pp), aa)| {
-            fine.update_band(bands[k], alpha, beta, xx, pp, z, aa)
+        let mut dot = run(items, |k, (xx, pp)| {
+            fine.update_band(bands[k], step, xx, pp, z)
         });
         // The rows next to each boundary.
+        let mut y = vec![0.0; s];
         let mut edge = |r: usize, dot: &mut f64| {
             let (pu, pr, pd) = super::rows(p, s, r);
-            *dot += fine.apply_row(r, pu, pr, pd, &mut ap[r * s..(r + 1) * s]);
+            *dot += fine.apply_dot_row(r, pu, pr, pd, &mut y);
         };
         for &(a, e) in &bands {
             if a > 1 {
@@ -423,7 +553,6 @@ impl System {
             }
         }
         for &(i, m) in &self.pins {
-            ap[i] += m * p[i];
             dot += m * p[i] * p[i];
         }
         dot

@@ -28,6 +28,7 @@ pub(super) fn dot4(a: &[f64], b: &[f64]) -> f64 {
 impl Level {
     /// Forward sweep of row r from zero (cells left of and above it already set;
     /// `above` is row r − 1, or zeros at a band's first row).
+    #[inline(always)]
     pub(super) fn fwd_row(&self, r: usize, b: &[f64], above: &[f64], cur: &mut [f64]) {
         let (w, s) = (self.w, self.stride());
         let (b, above, cur) = (&b[..s], &above[..s], &mut cur[..s]);
@@ -45,6 +46,7 @@ impl Level {
 
     /// Forward sweep of rows r and r + 1 from zero (`above`: row r − 1 or zeros), the
     /// second row one column behind the first.
+    #[inline(always)]
     pub(super) fn fwd_pair(
         &self,
         r: usize,
@@ -86,6 +88,7 @@ impl Level {
 
     /// Backward sweep of row r (right to left; `above`, `below`: rows r ∓ 1 as the
     /// sweep finds them). Returns Σ b_i x_i over the row.
+    #[inline(always)]
     pub(super) fn bwd_row(
         &self,
         r: usize,
@@ -120,6 +123,7 @@ impl Level {
     /// Backward sweep of rows r (first) and r − 1 (one column behind): `above` is row
     /// r − 2, `below` row r + 1. Returns Σ b_i x_i over both rows.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub(super) fn bwd_pair(
         &self,
         r: usize,
