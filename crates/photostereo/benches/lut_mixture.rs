@@ -278,6 +278,14 @@ fn main() {
         let wall = start.elapsed().as_secs_f64() / repeat as f64;
         let cpu = (cpu_seconds() - cpu0) / repeat as f64;
         times[i] = (wall, cpu);
+        // the fixed cost (tables split or extended, index, coarse grid): one pixel
+        let mut one = Mask::filled(case.mask.width, case.mask.height, false);
+        let first = case.mask.data.iter().position(|&m| m).unwrap_or(0);
+        one.data[first] = true;
+        let cpu1 = cpu_seconds();
+        let start = Instant::now();
+        lut::solve(&case.stack, &one, &case.tables, &case.opts, &NoProgress).unwrap();
+        let (setup, setup_cpu) = (start.elapsed().as_secs_f64(), cpu_seconds() - cpu1);
         let ratio = case.base.map_or(String::new(), |b| {
             format!(
                 ", ×{:.1} wall / ×{:.1} CPU of the single table",
@@ -286,7 +294,7 @@ fn main() {
             )
         });
         println!(
-            "  {:<40} {:>6} px: {wall:.3} s wall, {cpu:.3} s CPU ({:.1} µs/px CPU){ratio}; mean error {:.4}°",
+            "  {:<40} {:>6} px: {wall:.3} s wall, {cpu:.3} s CPU ({:.1} µs/px CPU; set-up {setup:.3} s wall, {setup_cpu:.2} s CPU){ratio}; mean error {:.4}°",
             case.name,
             out.stats.pixels,
             cpu / out.stats.pixels as f64 * 1e6,

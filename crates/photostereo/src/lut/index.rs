@@ -193,10 +193,27 @@ impl Index {
 
     /// The indexed point nearest to the projected query `q` among those `accept` takes,
     /// as (squared distance, entry id); (∞, `u32::MAX`) when it takes none. Exact: the
-    /// points refused are skipped, not counted as neighbours.
-    pub fn nearest_where(&self, q: &[f32], accept: impl Fn(u32) -> bool) -> (f32, u32) {
+    /// points refused are skipped, not counted as neighbours. `seeds` are entry ids
+    /// tried first (those `accept` takes tighten the search from the start; they only
+    /// speed it up).
+    pub fn nearest_where(
+        &self,
+        q: &[f32],
+        seeds: impl IntoIterator<Item = u32>,
+        accept: impl Fn(u32) -> bool,
+    ) -> (f32, u32) {
         let q = &padded(q);
         let mut best = (f32::INFINITY, u32::MAX);
+        for s in seeds {
+            if let Some(&pos) = self.slot.get(s as usize) {
+                if pos != u32::MAX {
+                    let dist = self.dist_at(pos as usize, q);
+                    if dist < best.0 && accept(s) {
+                        best = (dist, s);
+                    }
+                }
+            }
+        }
         if !self.nodes.is_empty() {
             self.search_where(0, q, &accept, &mut best);
         }
@@ -638,7 +655,7 @@ mod tests {
             all.sort_by(|a, b| a.0.total_cmp(&b.0));
             assert_eq!(got.len, 3);
             // the nearest point with an odd id, against brute force
-            let (d, id) = idx.nearest_where(&q, |e| e % 2 == 1);
+            let (d, id) = idx.nearest_where(&q, [], |e| e % 2 == 1);
             let want = all.iter().find(|(_, e)| e % 2 == 1).unwrap();
             assert_eq!(id % 2, 1);
             // branch and bound on the full distance (projected distance ≤ full: exact)
@@ -660,6 +677,9 @@ mod tests {
             assert_eq!(none, u32::MAX);
             assert!(idx.least(&q, f32::INFINITY, |b| b, full, 1).is_none());
             assert!((d - want.0).abs() < 1e-3 * (1.0 + want.0));
+            // seeds (taken or refused) change nothing
+            let seeded = idx.nearest_where(&q, [3, 8, 101, t * 31], |e| e % 2 == 1);
+            assert_eq!(seeded, (d, id));
             for (c, want) in all.iter().take(3).enumerate() {
                 assert!((got.dist[c] - want.0).abs() < 1e-3 * (1.0 + want.0));
             }

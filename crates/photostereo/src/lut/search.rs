@@ -122,6 +122,9 @@ pub(crate) struct Work {
     projected: bool,
     /// The fast path's buffer holds the current fit's tuple.
     fresh: bool,
+    /// The last fast refinement's result position and its final step not taken
+    /// (`single::Point::step`): the warm start extrapolates from position + step.
+    settled: (f64, f64, [f64; 2]),
 }
 
 impl Work {
@@ -138,6 +141,7 @@ impl Work {
             norm: 0.0,
             projected: false,
             fresh: false,
+            settled: (f64::NAN, f64::NAN, [0.0; 2]),
         }
     }
 }
@@ -486,8 +490,15 @@ impl<'a> Solver<'a> {
         let Some(warm) = wk.s.warm.as_mut() else {
             return;
         };
+        let (sx, sy, step) = wk.settled;
+        // the refinement's estimate of the minimum, when `fit` is its result
+        let (gx, gy) = if sx == fit.gx && sy == fit.gy {
+            (fit.gx + step[0], fit.gy + step[1])
+        } else {
+            (fit.gx, fit.gy)
+        };
         if shadowed == 0 {
-            let (dx, dy) = (fit.gx - warm.gx, fit.gy - warm.gy);
+            let (dx, dy) = (gx - warm.gx, gy - warm.gy);
             // extrapolate only small, smooth steps (and not out of a shadow)
             let smooth = !warm.masked && dx * dx + dy * dy <= MAX_EXTRAPOLATION.powi(2);
             (warm.dgx, warm.dgy) = if smooth { (dx, dy) } else { (0.0, 0.0) };
@@ -501,7 +512,7 @@ impl<'a> Solver<'a> {
             (warm.dgx, warm.dgy) = (0.0, 0.0);
             warm.masked = false;
         }
-        (warm.gx, warm.gy) = (fit.gx, fit.gy);
+        (warm.gx, warm.gy) = (gx, gy);
     }
 
     /// The model tuple of `fit` into `wk.s.pred` (from the fast path's buffer when it
@@ -532,6 +543,7 @@ impl<'a> Solver<'a> {
             return start;
         }
         wk.fresh = fresh;
+        wk.settled = (p.gx, p.gy, p.step);
         p.fit()
     }
 

@@ -65,6 +65,10 @@ pub(crate) struct Point {
     pub cost: f32,
     h: [f64; 3],
     g: [f64; 2],
+    /// The Gauss–Newton step below the stopping length that ended the iteration (not
+    /// taken: cur + step estimates the minimum better than cur); zero when the
+    /// iteration ended otherwise.
+    pub step: [f64; 2],
 }
 
 impl Point {
@@ -298,6 +302,7 @@ fn point<V: Lanes>(gx: f64, gy: f64, c: f32, scaled: bool, s: &Sums<V>) -> Point
         cost: s.res[0].sum(),
         h: [c2 * h[0], c2 * h[1], c2 * h[2]],
         g: [c64 * sum(s.res[1]), c64 * sum(s.res[2])],
+        step: [0.0; 2],
     }
 }
 
@@ -541,6 +546,7 @@ impl<'a> Single<'a> {
             let mut dy = (a * cur.g[1] - bb * cur.g[0]) / det;
             let len2 = dx * dx + dy * dy;
             if len2 < STOP2 {
+                cur.step = [dx, dy];
                 break;
             }
             if len2 > MAX_STEP * MAX_STEP {

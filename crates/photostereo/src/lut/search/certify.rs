@@ -8,6 +8,26 @@ use std::sync::atomic::Ordering;
 /// Grid distance (pixels) from an entry beyond which other entries count as lying
 /// outside its basin, for the entries' isolation radii (see `certified`).
 const ISOLATION_BASIN: f64 = 3.0;
+/// Grid offsets (rows, columns) just outside [`ISOLATION_BASIN`] (3.2–3.6 px): their
+/// entries seed the search for an isolation radius.
+const RING: [(i64, i64); 16] = [
+    (1, 3),
+    (2, 3),
+    (3, 1),
+    (3, 2),
+    (-1, 3),
+    (-2, 3),
+    (-3, 1),
+    (-3, 2),
+    (1, -3),
+    (2, -3),
+    (3, -1),
+    (3, -2),
+    (-1, -3),
+    (-2, -3),
+    (-3, -1),
+    (-3, -2),
+];
 /// Bits of an isolation radius not computed yet (a NaN that `isolation_of` never stores).
 pub(super) const UNSET: u32 = u32::MAX;
 /// Leaves the branch and bound of an uncertified shortcut may visit before the pixel
@@ -34,8 +54,15 @@ impl Solver<'_> {
                     let (x, y) = self.entry_grid(id);
                     (x - gx).powi(2) + (y - gy).powi(2) > ISOLATION_BASIN * ISOLATION_BASIN
                 };
-                // infinite when every indexed entry is within the basin
-                index.nearest_where(p, far).0.max(0.0).sqrt()
+                // infinite when every indexed entry is within the basin; the entries on
+                // a ring just outside it seed the search (they only speed it up)
+                let (r, c) = (gy as i64, gx as i64);
+                let seeds = RING.iter().filter_map(|&(dr, dc)| {
+                    let (r, c) = (r + dr, c + dc);
+                    let inside = r >= 0 && c >= 0;
+                    inside.then(|| self.entry_at(r as usize, c as usize))
+                });
+                index.nearest_where(p, seeds, far).0.max(0.0).sqrt()
             }
         };
         slot.store(rho.to_bits(), Ordering::Relaxed);
@@ -51,7 +78,8 @@ impl Solver<'_> {
     /// (raw matching: cost ≥ d²; normalised: cost ≥ ‖t‖²·min(1, d²/2)).
     pub(super) fn certified(&self, index: &Index, f: &Fit, wk: &mut Work) -> bool {
         let even = |g: f64| 2 * (0.5 * g).round().max(0.0) as usize;
-        let e0 = self.entry_at(even(f.gy), even(f.gx));
+        let (r0, c0) = (even(f.gy), even(f.gx));
+        let e0 = self.entry_at(r0, c0);
         if e0 == u32::MAX {
             return false;
         }
@@ -62,7 +90,7 @@ impl Solver<'_> {
         let rho = self.isolation_of(index, e0);
         // the projection is orthogonal, so the full K-dimensional distance bounds the
         // projected one from above: a cheaper test first (no projection of the query)
-        if self.lower_bound(wk.norm, rho - self.full_distance(wk, e0)) >= f.cost {
+        if self.lower_bound(wk.norm, rho - self.full_distance(wk, r0, c0)) >= f.cost {
             return true;
         }
         let d = index.distance(self.query(index, wk), e0).sqrt();
@@ -70,11 +98,13 @@ impl Solver<'_> {
     }
 
     /// Distance in the index's full K-dimensional space (tuples normalised when
-    /// matching is) from the current pixel's tuple to entry `e`'s: ≥ the projected one.
-    fn full_distance(&self, wk: &Work, e: u32) -> f32 {
+    /// matching is) from the current pixel's tuple to that of the entry at window pixel
+    /// (r, c): ≥ the projected one. The tuple is read from the window (the same values
+    /// as the entry's, next to those the refinement just read).
+    fn full_distance(&self, wk: &Work, r: usize, c: usize) -> f32 {
         let k = self.model.k;
         let t = &wk.t[..k];
-        let tuple = &self.model.tables[0].entries.tuples[e as usize * k..(e as usize + 1) * k];
+        let tuple = self.model.tables[0].window.stack.pixel(r, c);
         let (st, se) = if self.opts.normalize {
             let ne = tuple.iter().map(|v| v * v).sum::<f32>().sqrt();
             (1.0 / wk.norm.max(1e-12), 1.0 / ne.max(1e-6))
