@@ -99,12 +99,14 @@
 //! K = 16, table of a radius-150 sphere, 2 cores): about 9 Mpx/s before the
 //! certificate and the rim model, which cost about 1.6× the CPU time. Of the vase's
 //! pixels ≈ 94.6% are certified, ≈ 4.5% kept by the branch and bound and ≈ 0.7% go
-//! through the tree; Gauss–Newton takes 1.8 evaluations per pixel (8 lanes with AVX,
-//! 4 with SSE2, chosen at run time), and the isolation radii of the entries that
-//! certify some pixel are searched once and cached. Side by side with scikit-learn's
-//! `KDTree` (nearest entry only; `benches/sklearn_lookup.py`, 2026-12-02, idle machine)
-//! the lookup is ≈ 13–14× faster in wall time (issue 10 asks for 18×; README,
-//! "Benchmarks"). The workers write the output images row by row (`planes.rs`).
+//! through the tree; Gauss–Newton takes ≈ 1.6 evaluations per pixel (8 lanes with AVX,
+//! 4 with SSE2, chosen at run time; 57% of the warm fits take one), and the isolation
+//! radii of the entries that certify some pixel are searched once (seeded by a ring of
+//! entries just outside the basin) and cached. Side by side with scikit-learn's
+//! `KDTree` (nearest entry only; `benches/sklearn_lookup.py`, 2026-12-02) the lookup is
+//! ≈ 13–14× faster in wall time on the idle machine before the seeded warm start and
+//! ring, which take 1.13× less CPU (≈ 15× idle; medians 14.2× wall, 12.8× CPU at load
+//! ≈ 5): issue 10 asks for 18× (README, "Benchmarks"). The workers write the output images row by row (`planes.rs`).
 //!
 //! The table itself (building, file format) is in [`table`] and [`format`].
 
