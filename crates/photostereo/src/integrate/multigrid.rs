@@ -47,8 +47,9 @@
 //! Conjugate gradients (Hestenes–Stiefel) stop when ‖b − Az‖₂ ≤ tol · ‖b‖₂ and can
 //! start from any guess (BiNI warm-starts from the previous iterate); the update of z
 //! is folded into the pass that updates the search direction and computes p·A p, and
-//! the update of the residual into the cycle's first sweep, which computes A p again
-//! row by row rather than storing it (one vector less to write, read and page in).
+//! the update of the residual into the cycle's first sweep. That pass also computes
+//! A p and stores it in the preconditioned residual's vector, dead by then, where the
+//! sweep reads each row just before overwriting it (no extra vector to page in).
 //! The band kernels are compiled twice, for AVX2 and for the x86-64 baseline, and
 //! chosen at run time; both do the same arithmetic in the same order, so the results do
 //! not depend on the processor. The cost is O(pixels)
@@ -660,7 +661,11 @@ impl System {
             self.apply_dot(x, &mut ax);
             r.iter_mut().zip(&ax).for_each(|(ri, a)| *ri -= a);
         }
-        let mut rnorm = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let mut rnorm = if warm {
+            r.iter().map(|v| v * v).sum::<f64>().sqrt()
+        } else {
+            bnorm
+        };
         let mut out = Solved::default();
         if bnorm > 0.0 && rnorm > tol * bnorm {
             out.iterations = self.cg(x, &mut r, &mut rnorm, tol * bnorm, max_iter);
@@ -686,7 +691,7 @@ impl System {
         let mut work = h.workspace();
         let (mut z, mut p) = (vec![0.0; n], vec![0.0; n]);
         let mut rz = h.vcycle(0, r, &mut z, &mut work);
-        let mut pap = self.update(None, x, &mut p, &z);
+        let mut pap = self.update(None, x, &mut p, &mut z);
         let mut it = 0;
         loop {
             it += 1;
@@ -698,7 +703,7 @@ impl System {
             let rr = if h.levels.len() > 1 {
                 let bc = &mut work[0].bc;
                 self.fine()
-                    .forward(Some((alpha, &p)), r, &mut z, &h.levels[1], bc)
+                    .forward(Some(alpha), r, &mut z, &h.levels[1], bc)
             } else {
                 let mut ap = vec![0.0; n];
                 self.apply_dot(&p, &mut ap);
@@ -723,7 +728,7 @@ impl System {
             };
             let beta = rz_new / rz;
             rz = rz_new;
-            pap = self.update(Some((alpha, beta)), x, &mut p, &z);
+            pap = self.update(Some((alpha, beta)), x, &mut p, &mut z);
         }
     }
 }

@@ -18,10 +18,10 @@
 //! restricted inside the band where the band holds both rows, and at the two rows next
 //! to each boundary after the bands have joined.
 //!
-//! CG's passes are fused with the cycle's: the update r ← r − α A p runs row by row just
-//! ahead of the forward sweep that reads r, computing A p again from p on the fly (three
-//! rows of p in cache) instead of storing it, and the updates x ← x + α p, p ← z + β p
-//! run one row ahead of the product p·A p of the next iteration (see `System::cg`).
+//! CG's passes are fused with the cycle's: the updates x ← x + α p, p ← z + β p run one
+//! row ahead of the product A p and p·A p, A p going into z's rows (no longer needed);
+//! the update r ← r − α A p runs row by row just ahead of the forward sweep that reads
+//! r, reading A p from the rows of z it is about to overwrite (see `System::cg`).
 //! These change nothing but the number of passes over memory (and the rounding).
 
 use super::sweep::dot4;
@@ -105,7 +105,7 @@ impl Level {
         (
             rows: (usize, usize),
             c0: usize,
-            upd: Option<(f64, &[f64])>,
+            upd: Option<f64>,
             b: &mut [f64],
             x: &mut [f64],
             coarse: &Level,
@@ -135,7 +135,7 @@ impl Level {
             step: Option<(f64, f64)>,
             x: &mut [f64],
             p: &mut [f64],
-            z: &[f64]
+            z: &mut [f64]
         )
     );
 }
@@ -162,12 +162,13 @@ impl Level {
     }
 
     /// The forward sweep from zero, x = (D + L_B)⁻¹ b, and the restriction of its
-    /// residual into `rc` (r_c = Pᵀ r). With `upd` = (α, p), b ← b − α A p first (A
+    /// residual into `rc` (r_c = Pᵀ r). With `upd` = α, b ← b − α A p first (A
     /// without its masses: the caller applies those), each row just before the sweep
-    /// reads it, A p computed on the fly from p; returns ‖b‖² then (0 otherwise).
+    /// reads it, A p read from x (where [`System::update`] left it; the sweep then
+    /// overwrites it); returns ‖b‖² then (0 otherwise).
     pub(super) fn forward(
         &self,
-        upd: Option<(f64, &[f64])>,
+        upd: Option<f64>,
         b: &mut [f64],
         x: &mut [f64],
         coarse: &Level,
@@ -213,7 +214,7 @@ impl Level {
         &self,
         (a, e): (usize, usize),
         c0: usize,
-        upd: Option<(f64, &[f64])>,
+        upd: Option<f64>,
         b: &mut [f64],
         x: &mut [f64],
         coarse: &Level,
@@ -222,17 +223,18 @@ impl Level {
         let s = self.stride();
         rc.iter_mut().for_each(|v| *v = 0.0);
         let zero = vec![0.0; s];
-        // Scratch row for A p (stays in the L1 cache).
-        let mut y = vec![0.0; s];
         let mut rr = 0.0;
         let mut r = a;
         while r < e {
             let k = (r - a) * s;
             let pair = r + 1 < e;
-            if let Some((alpha, p)) = upd {
+            if let Some(alpha) = upd {
+                // x's rows hold A p (stored there by `System::update`) until the sweep
+                // below overwrites them.
+                let w = self.w;
                 for q in r..if pair { r + 2 } else { r + 1 } {
                     let kq = (q - a) * s;
-                    rr += self.sub_ap_row(q, alpha, p, &mut b[kq..kq + s], &mut y);
+                    rr += axpy_sq(&mut b[kq + 1..=kq + w], &x[kq + 1..=kq + w], -alpha);
                 }
             }
             let (done, rest) = x.split_at_mut(k);
@@ -456,15 +458,6 @@ impl Level {
         dot4(&xr[1..=self.w], &y[1..=self.w])
     }
 
-    /// b ← b − α (A p) on row r (`b`: that row; `p`: the whole padded vector; `y`:
-    /// scratch row); returns ‖b‖² over the row.
-    #[inline(always)]
-    fn sub_ap_row(&self, r: usize, alpha: f64, p: &[f64], b: &mut [f64], y: &mut [f64]) -> f64 {
-        let (pu, pr, pd) = super::rows(p, self.stride(), r);
-        self.apply_into(r, pu, pr, pd, y);
-        axpy_sq(&mut b[1..=self.w], &y[1..=self.w], -alpha)
-    }
-
     /// [`System::update`] on the rows [a, e) of one band (`x`, `p` hold those rows).
     /// The product on a row next to a boundary is left to the caller.
     #[inline(always)]
@@ -474,16 +467,15 @@ impl Level {
         step: Option<(f64, f64)>,
         x: &mut [f64],
         p: &mut [f64],
-        z: &[f64],
+        z: &mut [f64],
     ) -> f64 {
         let (w, s) = (self.w, self.stride());
         let zero = vec![0.0; s];
-        let mut y = vec![0.0; s];
         let defer = |j: usize| (j == a && a > 1) || (j + 1 == e && e <= self.h);
         let mut dot = 0.0;
         for r in a..e {
             let k = (r - a) * s;
-            let zr = &z[r * s + 1..=r * s + w];
+            let zr = &z[k + 1..=k + w];
             match step {
                 Some((alpha, beta)) => {
                     for ((xi, pi), &zi) in x[k + 1..=k + w]
@@ -505,13 +497,14 @@ impl Level {
                     &zero[..]
                 };
                 let (pr, pd) = (&p[k - s..k], &p[k..k + s]);
-                dot += self.apply_dot_row(r - 1, above, pr, pd, &mut y);
+                // A p into z's row r − 1, no longer needed.
+                dot += self.apply_dot_row(r - 1, above, pr, pd, &mut z[k - s..k]);
             }
         }
         if !defer(e - 1) {
             let k = (e - 1 - a) * s;
             let above = if e - 1 > a { &p[k - s..k] } else { &zero[..] };
-            dot += self.apply_dot_row(e - 1, above, &p[k..k + s], &zero, &mut y);
+            dot += self.apply_dot_row(e - 1, above, &p[k..k + s], &zero, &mut z[k..k + s]);
         }
         dot
     }
@@ -519,14 +512,15 @@ impl Level {
 
 impl System {
     /// With `step` = (α, β): x ← x + α p, p ← z + β p; without (the first iteration):
-    /// p = z. Returns p·A p of the new p (A p itself is not stored: the next forward
-    /// sweep computes it again, row by row).
+    /// p = z. Returns p·A p of the new p, and leaves A p (without the masses) in z,
+    /// whose rows are no longer needed once p's are set: the next forward sweep reads
+    /// it there just before it overwrites it.
     pub(super) fn update(
         &self,
         step: Option<(f64, f64)>,
         x: &mut [f64],
         p: &mut [f64],
-        z: &[f64],
+        z: &mut [f64],
     ) -> f64 {
         let fine = self.fine();
         let s = fine.stride();
@@ -534,15 +528,15 @@ impl System {
         let items: Vec<_> = split(x, &bands, s)
             .into_iter()
             .zip(split(p, &bands, s))
+            .zip(split(z, &bands, s))
             .collect();
-        let mut dot = run(items, |k, (xx, pp)| {
-            fine.update_band(bands[k], step, xx, pp, z)
+        let mut dot = run(items, |k, ((xx, pp), zz)| {
+            fine.update_band(bands[k], step, xx, pp, zz)
         });
         // The rows next to each boundary.
-        let mut y = vec![0.0; s];
         let mut edge = |r: usize, dot: &mut f64| {
             let (pu, pr, pd) = super::rows(p, s, r);
-            *dot += fine.apply_dot_row(r, pu, pr, pd, &mut y);
+            *dot += fine.apply_dot_row(r, pu, pr, pd, &mut z[r * s..(r + 1) * s]);
         };
         for &(a, e) in &bands {
             if a > 1 {
