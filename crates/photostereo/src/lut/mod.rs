@@ -83,8 +83,9 @@
 //! bilinear creases. As with one table, most pixels start from the previous pixel's fit
 //! and keep it only under a global check: it must fit at least as well as the best grid
 //! point of the whole table and lie in that point's basin, and the other best grid points
-//! outside it are searched too (`search/mixture.rs`); so the split and two tables run at
-//! 2–5× the single table's CPU time (35–55× with the exhaustive search at every pixel).
+//! outside it are searched too (`search/mixture.rs`); so the split runs at 3–4× and two
+//! tables at 1.6–6× the single table's CPU time on 256² renders (22–55× with the
+//! exhaustive search at every pixel).
 //! (a, b) are returned in [`Output::weights`]. Both tables are extended past their
 //! last clean ring to about 89° with their rim models (`diffuse::extend`), so grazing
 //! normals are fitted, not clamped to a table's edge. A light counts as cast-shadowed below
@@ -178,8 +179,8 @@ pub struct Options {
     /// into its Lambertian part D and the remainder S (highlight) and fit
     /// t ≈ a·D(n) + b·S(n), a, b ≥ 0 (`diffuse.rs`; the two-material mixture with one
     /// sphere). a, the diffuse albedo relative to the sphere's, is returned in
-    /// [`Output::albedo`], (a, b) in [`Output::weights`]. Slower than `normalize` (the
-    /// mixture's search, `search/mixture.rs`). Default false.
+    /// [`Output::albedo`], (a, b) in [`Output::weights`]. About 3–4× the CPU time of
+    /// `normalize` (the mixture's search, `search/mixture.rs`). Default false.
     pub split_specular: bool,
 }
 

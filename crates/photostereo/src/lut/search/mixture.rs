@@ -37,10 +37,10 @@
 //! nearby minima) the two searches may settle in different minima, with residuals
 //! within 0.7% of the pixel's brightness.
 //!
-//! Speed (`benches/lut_mixture.rs`, 256² renders, K = 16–20, 2 cores under load): ≈ 99%
-//! of the pixels keep their warm fit; the split and the two tables take 2–5× the CPU
-//! time of the single table's normalised lookup on the same render, where the
-//! exhaustive search took 35–55×.
+//! Speed (`benches/lut_mixture.rs`, 256² renders, K = 16–20, 2 cores at load ≈ 5.5):
+//! 95–99% of the pixels keep their warm fit; the split takes 3.1–4.1× and two tables
+//! 1.6–6.0× the CPU time of the single table's normalised lookup on the same render
+//! (the exhaustive search at every pixel took 35–49× and 22–55×).
 
 use super::{Fit, Solver, Warm, Work, COARSE_KEEP};
 use crate::lut::model::gram5;
