@@ -666,7 +666,6 @@ impl<'a> Solver<'a> {
         let k = self.model.k;
         let t = &wk.t[..k];
         let w = weighted.then_some(&wk.w[..k]);
-        let s = &mut wk.s;
         let mut keep: [(f32, usize); COARSE_KEEP] = [(f32::INFINITY, 0); COARSE_KEEP];
         for (j, _) in self.coarse_pos.iter().enumerate() {
             let a = &self.coarse_basis[0][j * k..(j + 1) * k];
@@ -681,6 +680,17 @@ impl<'a> Solver<'a> {
                 keep.sort_by(|x, y| x.0.total_cmp(&y.0));
             }
         }
+        let start = self.best_descent(weighted, &keep, wk);
+        self.refine(weighted, start, wk)
+    }
+
+    /// Pattern descent from each kept coarse point (finite cost) down to half a pixel;
+    /// the best of those, or the first coarse point when none is kept: the start of the
+    /// refinement, for the single table's and the mixture's exhaustive searches.
+    fn best_descent(&self, weighted: bool, keep: &[(f32, usize)], wk: &mut Work) -> Fit {
+        let k = self.model.k;
+        let (t, s) = (&wk.t[..k], &mut wk.s);
+        let w = weighted.then_some(&wk.w[..k]);
         let mut best: Option<Fit> = None;
         for &(_, j) in keep.iter().filter(|c| c.0.is_finite()) {
             let (gx, gy) = self.coarse_pos[j];
@@ -690,11 +700,10 @@ impl<'a> Solver<'a> {
                 best = Some(f);
             }
         }
-        let start = best.unwrap_or_else(|| {
+        best.unwrap_or_else(|| {
             let (gx, gy) = self.coarse_pos[0];
             self.model.eval(t, w, gx, gy, s)
-        });
-        self.refine(weighted, start, wk)
+        })
     }
 
     /// The baseline: normals of the m nearest entries averaged with weights 1/distance.

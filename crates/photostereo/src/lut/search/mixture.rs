@@ -324,24 +324,11 @@ impl Solver<'_> {
     /// The exhaustive search's second half: pattern descent from each kept coarse point
     /// down to half a pixel, then the refinement from the best of those.
     fn descend_refine(&self, weighted: bool, keep: &[(f32, usize)], wk: &mut Work) -> Fit {
+        let start = self.best_descent(weighted, keep, wk);
         let k = self.model.k;
-        let (t, s) = (&wk.t[..k], &mut wk.s);
         let w = weighted.then_some(&wk.w[..k]);
-        let mut best: Option<Fit> = None;
-        for &(_, j) in keep.iter().filter(|c| c.0.is_finite()) {
-            let (gx, gy) = self.coarse_pos[j];
-            let start = self.model.eval(t, w, gx, gy, s);
-            let f = self.model.descend(t, w, start, self.coarse_step / 2.0, s);
-            if best.is_none_or(|b| f.cost < b.cost) {
-                best = Some(f);
-            }
-        }
-        let start = best.unwrap_or_else(|| {
-            let (gx, gy) = self.coarse_pos[0];
-            self.model.eval(t, w, gx, gy, s)
-        });
         let iters = self.opts.max_iterations;
-        self.model.refine(t, w, start, iters, s)
+        self.model.refine(&wk.t[..k], w, start, iters, &mut wk.s)
     }
 
     /// The mixture's first fit on all lights: from the previous pixel's solution
