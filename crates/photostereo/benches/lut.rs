@@ -14,6 +14,9 @@ use photostereo::sphere::Circle;
 use photostereo::synth::{self, SceneOptions, Shape, ShapeKind};
 use std::time::Instant;
 
+mod common;
+use common::cpu_seconds;
+
 fn lookup(c: &mut Criterion) {
     let scene_opts = SceneOptions {
         width: 1024,
@@ -96,24 +99,6 @@ fn env_or(name: &str, default: usize) -> usize {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(default)
-}
-
-/// User + system CPU time of this process (Linux `/proc/self/stat`), 0 elsewhere.
-fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let fields: Vec<&str> = stat
-        .rsplit(')')
-        .next()
-        .unwrap_or("")
-        .split_whitespace()
-        .collect();
-    let ticks = |i: usize| {
-        fields
-            .get(i)
-            .and_then(|v| v.parse::<f64>().ok())
-            .unwrap_or(0.0)
-    };
-    (ticks(11) + ticks(12)) / 100.0
 }
 
 criterion_group!(benches, lookup);

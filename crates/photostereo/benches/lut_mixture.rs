@@ -24,6 +24,9 @@ use photostereo::synth::{self, Material, SceneOptions, Shape, ShapeKind};
 use std::path::PathBuf;
 use std::time::Instant;
 
+mod common;
+use common::cpu_seconds;
+
 const SIZE: usize = 256;
 
 struct Case {
@@ -309,22 +312,4 @@ fn main() {
             .collect::<Vec<_>>()
             .join(" ")
     );
-}
-
-/// User + system CPU time of this process (Linux `/proc/self/stat`), 0 elsewhere.
-fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let fields: Vec<&str> = stat
-        .rsplit(')')
-        .next()
-        .unwrap_or("")
-        .split_whitespace()
-        .collect();
-    let ticks = |i: usize| {
-        fields
-            .get(i)
-            .and_then(|v| v.parse::<f64>().ok())
-            .unwrap_or(0.0)
-    };
-    (ticks(11) + ticks(12)) / 100.0
 }
