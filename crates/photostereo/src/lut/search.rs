@@ -120,6 +120,9 @@ pub(crate) struct Work {
     norm: f32,
     /// `q` holds the current pixel's projected query.
     projected: bool,
+    /// `s.seeds` holds the current pixel's tree candidates (the `candidates` entries
+    /// nearest to its query: the same whichever search found them).
+    candidates: bool,
     /// The fast path's buffer holds the current fit's tuple.
     fresh: bool,
     /// The last fast refinement's result position and its final step not taken
@@ -140,6 +143,7 @@ impl Work {
             rim: RimBuf::new(k),
             norm: 0.0,
             projected: false,
+            candidates: false,
             fresh: false,
             settled: (f64::NAN, f64::NAN, [0.0; 2]),
         }
@@ -272,6 +276,7 @@ impl<'a> Solver<'a> {
         wk.norm = norm2(&wk.t).sqrt();
         wk.fresh = false;
         wk.projected = false;
+        wk.candidates = false;
         if let (Some(index), Method::InverseDistance { neighbours }) =
             (&self.index, self.opts.method)
         {
@@ -557,8 +562,12 @@ impl<'a> Solver<'a> {
     /// re-ranked on the full K-dimensional cost with the weights in `wk.w` (`weighted`)
     /// or all lights; the best one as a fit. The search is seeded with the previous pixel's
     /// candidates, or with the entries around `near` when checking a fit (seeds only
-    /// speed the search up: the candidates are the same).
+    /// speed the search up: the candidates are the same); it is not run again when this
+    /// pixel's candidates are known already (the masked shortcut's check found them).
     fn tree_match(&self, index: &Index, near: Option<&Fit>, weighted: bool, wk: &mut Work) -> Fit {
+        if wk.candidates {
+            return self.best_of_seeds(weighted, wk);
+        }
         self.query(index, wk);
         if let Some(f) = near {
             wk.s.seeds.clear();
@@ -576,6 +585,7 @@ impl<'a> Solver<'a> {
         let cands = index.nearest(&wk.q[..index.dims()], self.opts.candidates, &wk.s.seeds);
         wk.s.seeds.clear();
         wk.s.seeds.extend_from_slice(&cands.ids[..cands.len]);
+        wk.candidates = true;
         self.best_of_seeds(weighted, wk)
     }
 

@@ -30,8 +30,8 @@ const RING: [(i64, i64); 16] = [
 ];
 /// Bits of an isolation radius not computed yet (a NaN that `isolation_of` never stores).
 pub(super) const UNSET: u32 = u32::MAX;
-/// Leaves the branch and bound of an uncertified shortcut may visit before the pixel
-/// goes through the plain tree search instead.
+/// Leaves that the branch and bound of an uncertified shortcut may visit: when its
+/// initial search ball meets more, the pixel goes through the plain tree search instead.
 const BOUND_LEAVES: usize = 48;
 
 impl Solver<'_> {
@@ -130,8 +130,8 @@ impl Solver<'_> {
 
     /// Branch and bound over the index for a table entry that fits the target better
     /// than `f` (all lights; module docs, step 1): `Some(None)` when none does,
-    /// `Some(Some(fit))` at the best one, `None` when the search ran over its budget of
-    /// [`BOUND_LEAVES`] leaves.
+    /// `Some(Some(fit))` at the best one, `None` when its initial ball (from `f`'s cost)
+    /// meets more than [`BOUND_LEAVES`] leaves.
     pub(super) fn better_entry(
         &self,
         index: &Index,
@@ -163,6 +163,7 @@ impl Solver<'_> {
         let (gx, gy) = self.entry_grid(e);
         wk.s.seeds.clear();
         wk.s.seeds.push(e);
+        wk.candidates = false;
         Some(Some(Fit { gx, gy, coef, cost }))
     }
 
