@@ -69,6 +69,26 @@ impl Solver<'_> {
         rho
     }
 
+    /// Compute the isolation radius of every entry at an even grid point (even row and
+    /// column: the anchors of [`Solver::certified`]), in parallel.
+    pub(super) fn fill_isolation(&self) {
+        use rayon::prelude::*;
+        let Some(index) = self.index else {
+            return;
+        };
+        let pixels = &self.model.tables[0].entries.pixels;
+        (0..pixels.len() as u32)
+            .into_par_iter()
+            .with_min_len(256)
+            .filter(|&e| {
+                let (gx, gy) = self.entry_grid(e);
+                (gx as i64) % 2 == 0 && (gy as i64) % 2 == 0
+            })
+            .for_each(|e| {
+                self.isolation_of(index, e);
+            });
+    }
+
     /// The certificate of the coherence shortcut (module docs, step 1): no table entry
     /// more than [`ISOLATION_BASIN`] + 1.5 px from `f` fits the target better. With e₀
     /// the entry at the even grid point (even row and column) nearest to `f` and ρ(e₀) its isolation radius (the
