@@ -51,7 +51,7 @@ pub struct Row {
 }
 
 /// The names of [`ROWS`], in order (the values `--only` accepts).
-pub const ROW_NAMES: [&str; 7] = [
+pub const ROW_NAMES: [&str; 8] = [
     "fft-floor",
     "fc",
     "fc-reflect",
@@ -59,6 +59,7 @@ pub const ROW_NAMES: [&str; 7] = [
     "path",
     "lsq",
     "lookup",
+    "lookup-cold",
 ];
 
 /// The rows, in print order. The first is the FFT floor the Fourier rows are compared to.
@@ -111,14 +112,23 @@ pub const ROWS: &[Row] = &[
     Row {
         name: "lookup",
         vs_floor: false,
-        what: "lookup-table normals, 1024² shiny vase (mask px), K=16, table r=150",
-        prepare: |_| lookup_job(),
+        what: "lookup-table normals, 1024² shiny vase (mask px), K=16, table r=150, prepared lut::Lookup",
+        prepare: |_| lookup_job(true),
+    },
+    Row {
+        name: "lookup-cold",
+        vs_floor: false,
+        what: "the same, one lut::solve call (index, rim model, radii built inside the timing)",
+        prepare: |_| lookup_job(false),
     },
 ];
 
 /// A rendered 1024² shiny-plastic vase under 16 lights and the table of a rendered
-/// radius-150 sphere of the same material.
-fn lookup_job() -> anyhow::Result<Job> {
+/// radius-150 sphere of the same material. `prepared`: the table's [`photostereo::lut::Lookup`]
+/// (search index, isolation radii, rim model) is built before the timing, as a KD-tree
+/// library's tree is built before its queries are timed; otherwise each run is one
+/// [`photostereo::lut::solve`] call that builds them.
+fn lookup_job(prepared: bool) -> anyhow::Result<Job> {
     use photostereo::lut;
     use photostereo::sphere::Circle;
     use photostereo::synth::{self, SceneOptions, Shape, ShapeKind};
@@ -143,20 +153,23 @@ fn lookup_job() -> anyhow::Result<Job> {
         &lut::BuildOptions::default(),
     )?];
     let progress = photostereo::progress::NoProgress;
-    Ok(Job {
-        pixels: scene.mask.count(),
-        run: Box::new(move || {
-            let out = lut::solve(
-                &scene.stack,
-                &scene.mask,
-                &tables,
-                &lut::Options::default(),
-                &progress,
-            )?;
+    let opts = lut::Options::default();
+    let pixels = scene.mask.count();
+    let run: Box<dyn FnMut() -> anyhow::Result<()>> = if prepared {
+        let lookup = lut::Lookup::new(tables, &opts)?;
+        Box::new(move || {
+            let out = lookup.solve(&scene.stack, &scene.mask, &progress)?;
             std::hint::black_box(out);
             Ok(())
-        }),
-    })
+        })
+    } else {
+        Box::new(move || {
+            let out = lut::solve(&scene.stack, &scene.mask, &tables, &opts, &progress)?;
+            std::hint::black_box(out);
+            Ok(())
+        })
+    };
+    Ok(Job { pixels, run })
 }
 
 /// Gradients of a sphere cap covering the grid (radius 0.8 × width).

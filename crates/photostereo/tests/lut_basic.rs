@@ -354,3 +354,57 @@ fn bad_inputs_are_clear_errors() {
     println!("{err}");
     assert!(matches!(err, Error::TableMismatch { .. }));
 }
+
+/// A prepared [`lut::Lookup`] gives every target exactly what one `lut::solve` call
+/// gives it (the prepared isolation radii are the same exact values the certificate
+/// computes on demand), for one table, the split and two tables; and it checks each
+/// target against its tables.
+#[test]
+fn prepared_lookup_matches_one_shot_solve_for_every_target() {
+    let shiny = table(SHINY, 8, 0.0);
+    let glossy = table(GLOSSY, 8, 0.0);
+    let split = Options {
+        normalize: true,
+        split_specular: true,
+        ..Options::default()
+    };
+    let normalized = Options {
+        normalize: true,
+        ..Options::default()
+    };
+    // every case fits an albedo other than the sphere's (0.7)
+    let cases: [(&[Table], Options); 3] = [
+        (std::slice::from_ref(&shiny), normalized),
+        (std::slice::from_ref(&shiny), split),
+        (&[shiny.clone(), glossy][..], Options::default()),
+    ];
+    for (tables, opts) in &cases {
+        let lookup = lut::Lookup::new(*tables, opts).unwrap();
+        for albedo in [1.0f32, 0.7] {
+            let (target, mask, truth) = bumps(40, &lights(8), SHINY, &|_, _| albedo);
+            let prepared = lookup.solve(&target, &mask, &NoProgress).unwrap();
+            let one_shot = solve(&target, &mask, tables, opts);
+            assert_eq!(prepared.normals.data, one_shot.normals.data);
+            assert_eq!(prepared.confidence.data, one_shot.confidence.data);
+            assert_eq!(prepared.stats, one_shot.stats);
+            // and the normals are right (a shiny target of the table's material)
+            let (mean, _) = errors(&prepared.normals, &truth, &mask);
+            println!(
+                "{} table(s), split {}, albedo {albedo}: {mean:.3}°",
+                tables.len(),
+                opts.split_specular
+            );
+            assert!(mean < 1.0, "mean error {mean:.3}°");
+        }
+    }
+    // an owned lookup; a target under other lights is refused, not solved
+    let lookup = lut::Lookup::new(vec![shiny.clone()], &Options::default()).unwrap();
+    let (target, mask, _) = bumps(32, &lights(5), SHINY, &|_, _| 1.0);
+    let err = lookup.solve(&target, &mask, &NoProgress).unwrap_err();
+    assert!(matches!(err, Error::TableMismatch { .. }), "{err}");
+    // two tables under different numbers of lights: an error, before any work
+    let err = lut::Lookup::new(vec![shiny, table(GLOSSY, 6, 0.0)], &Options::default())
+        .err()
+        .unwrap();
+    assert!(matches!(err, Error::TableMismatch { .. }), "{err}");
+}

@@ -30,8 +30,9 @@
 //!    certificate, a branch and bound over the tree with that lower bound looks for any
 //!    entry that costs less than f (search radius from f's cost, so it visits a few
 //!    leaves): f is kept when there is none. When it finds one, the refinement from the
-//!    best such entry runs and the better fit is kept; when it would visit more than 48
-//!    leaves, the pixel goes through the plain tree search: its candidates are re-ranked, f is
+//!    best such entry runs and the better fit is kept; when its initial search ball meets
+//!    more than 48 leaves of the tree (counted first, without a cost), the pixel goes
+//!    through the plain tree search: its candidates are re-ranked, f is
 //!    kept only when it fits at least as well as the best candidate and that candidate
 //!    lies within 1.5 px of it, otherwise Gauss–Newton from the best candidate runs and
 //!    the better fit is kept. So, whatever its neighbours did, no table entry farther
@@ -241,6 +242,10 @@ pub struct Stats {
 /// Estimate the normals of the `mask` pixels of `stack` from one table (or two for a
 /// mixture of materials).
 ///
+/// One call of [`Lookup::new`] and [`Lookup::solve`], except that the isolation radii
+/// are computed only for the entries this target needs. To look up several targets
+/// with the same tables, build the [`Lookup`] once.
+///
 /// Errors: no table or more than two; a table whose K or image names differ from the
 /// target's ([`Error::TableMismatch`]); K < 3; a mask of another size or empty.
 pub fn solve(
@@ -250,64 +255,168 @@ pub fn solve(
     opts: &Options,
     progress: &dyn Progress,
 ) -> Result<Output> {
-    check_inputs(stack, mask, tables, opts)?;
-    let split;
-    let tables = if opts.split_specular {
-        split = diffuse::split(&tables[0]);
-        &split[..]
-    } else if tables.len() == 2 {
-        // the mixture reaches 90° on both tables' rim models
-        split = [diffuse::extend(&tables[0]), diffuse::extend(&tables[1])];
-        &split[..]
-    } else {
-        tables
-    };
-    let model = Model::new(tables, opts.normalize);
-    let solver = Solver::new(model, opts);
-    let (w, h, k) = (stack.width, stack.height, stack.k);
-    let mut planes = Planes::new(w, h, tables.len(), opts.normalize);
-    planes.albedo_from_weight = opts.split_specular;
-    progress.start("lookup", h as u64);
-    let stats = planes
-        .rows()
-        .into_par_iter()
-        .enumerate()
-        .map(|(r, mut row)| {
-            let mut wk = Work::new(k);
-            for c in 0..w {
-                if !*mask.get(r, c) {
-                    wk.s.warm = None;
-                    continue;
-                }
-                for (dst, &v) in wk.t.iter_mut().zip(stack.pixel(r, c)) {
-                    *dst = if v.is_finite() { v } else { 0.0 };
-                }
-                row.set(c, &solver.pixel(&mut wk));
-            }
-            progress.advance(1);
-            row.stats
-        })
-        .reduce(Stats::default, planes::add_stats);
-    progress.finish();
-    Ok(planes.into_output(stats))
+    check_tables(tables, opts)?;
+    check_target(stack, mask, tables)?;
+    Lookup::prepare(tables.into(), opts)?.solve(stack, mask, progress)
 }
 
-fn check_inputs(stack: &ImageStack, mask: &Mask, tables: &[Table], opts: &Options) -> Result<()> {
+/// A lookup prepared for one set of tables and options: the search index over the
+/// table's entries (principal axes and KD-tree), the entries' isolation radii (the
+/// certificate of step 1), the rim model past the table's edge and the coarse grid of
+/// the exhaustive searches (and, for `split_specular`, the split table). None of it
+/// depends on the target, so a batch of targets — many scans, or the chunks of one
+/// large image — pays for it once, as a KD-tree library's tree is built once and then
+/// queried. Immutable after [`Lookup::new`]; [`Lookup::solve`] may run from several
+/// threads at once.
+///
+/// ```
+/// # use photostereo::{lut, synth, sphere::Circle, progress::NoProgress};
+/// let opts = synth::SceneOptions { width: 64, height: 64, ..Default::default() };
+/// let sphere = synth::render_calibration_sphere(&opts, 24.0)?;
+/// let (w, h) = (sphere.stack.width as f64, sphere.stack.height as f64);
+/// let circle = Circle { cx: w / 2.0, cy: h / 2.0, radius: 24.0 };
+/// let tables = [lut::Table::build(&sphere.stack, &circle, &lut::BuildOptions::default())?];
+/// let lookup = lut::Lookup::new(&tables[..], &lut::Options::default())?;
+/// for _scan in 0..2 {
+///     let scene = synth::render(&opts)?;
+///     let out = lookup.solve(&scene.stack, &scene.mask, &NoProgress)?;
+///     assert_eq!(out.stats.pixels, scene.mask.count());
+/// }
+/// # Ok::<(), photostereo::Error>(())
+/// ```
+pub struct Lookup<'t> {
+    /// The caller's tables (for the checks against each target), borrowed or owned.
+    given: std::borrow::Cow<'t, [Table]>,
+    /// The tables searched when they differ from the given ones (the split table, or
+    /// two tables extended to 90°).
+    derived: Option<Vec<Table>>,
+    opts: Options,
+    prep: search::Prep,
+}
+
+impl<'t> Lookup<'t> {
+    /// Prepare the lookup of targets against `tables` (one, or two for a mixture of
+    /// materials; borrowed, `&[Table]`, or owned, `Vec<Table>`) with `opts`, including
+    /// every entry's isolation radius (in parallel).
+    ///
+    /// Errors: no table or more than two; K < 3; two tables under different numbers
+    /// of lights; options that do not fit the tables (as [`solve`]).
+    pub fn new(tables: impl Into<std::borrow::Cow<'t, [Table]>>, opts: &Options) -> Result<Self> {
+        let lookup = Self::prepare(tables.into(), opts)?;
+        lookup.prep.fill_isolation(lookup.model(), &lookup.opts);
+        Ok(lookup)
+    }
+
+    /// As [`Lookup::new`], the isolation radii left to be computed when first needed.
+    fn prepare(tables: std::borrow::Cow<'t, [Table]>, opts: &Options) -> Result<Self> {
+        check_tables(&tables, opts)?;
+        let derived = if opts.split_specular {
+            Some(diffuse::split(&tables[0]).to_vec())
+        } else if tables.len() == 2 {
+            // the mixture reaches 90° on both tables' rim models
+            Some(vec![
+                diffuse::extend(&tables[0]),
+                diffuse::extend(&tables[1]),
+            ])
+        } else {
+            None
+        };
+        let searched = derived.as_deref().unwrap_or(&tables);
+        let prep = search::Prep::new(&Model::new(searched, opts.normalize), opts);
+        Ok(Lookup {
+            given: tables,
+            derived,
+            opts: opts.clone(),
+            prep,
+        })
+    }
+
+    /// The options the lookup was prepared with.
+    pub fn options(&self) -> &Options {
+        &self.opts
+    }
+
+    fn model(&self) -> Model<'_> {
+        let searched = self.derived.as_deref().unwrap_or(&self.given);
+        Model::new(searched, self.opts.normalize)
+    }
+
+    /// Estimate the normals of the `mask` pixels of `stack` (see [`solve`]).
+    ///
+    /// Errors: a target whose K or image names differ from the tables'
+    /// ([`Error::TableMismatch`]); a mask of another size or empty.
+    pub fn solve(
+        &self,
+        stack: &ImageStack,
+        mask: &Mask,
+        progress: &dyn Progress,
+    ) -> Result<Output> {
+        check_target(stack, mask, &self.given)?;
+        let solver = Solver::with(self.model(), &self.opts, &self.prep);
+        let n_tables = self.derived.as_ref().map_or(self.given.len(), Vec::len);
+        let (w, h, k) = (stack.width, stack.height, stack.k);
+        let mut planes = Planes::new(w, h, n_tables, self.opts.normalize);
+        planes.albedo_from_weight = self.opts.split_specular;
+        progress.start("lookup", h as u64);
+        let stats = planes
+            .rows()
+            .into_par_iter()
+            .enumerate()
+            .map(|(r, mut row)| {
+                let mut wk = Work::new(k);
+                for c in 0..w {
+                    if !*mask.get(r, c) {
+                        wk.s.warm = None;
+                        continue;
+                    }
+                    for (dst, &v) in wk.t.iter_mut().zip(stack.pixel(r, c)) {
+                        *dst = if v.is_finite() { v } else { 0.0 };
+                    }
+                    row.set(c, &solver.pixel(&mut wk));
+                }
+                progress.advance(1);
+                row.stats
+            })
+            .reduce(Stats::default, planes::add_stats);
+        progress.finish();
+        Ok(planes.into_output(stats))
+    }
+}
+
+/// The target's checks: lights, mask size, a non-empty mask, the same lights as the
+/// tables'.
+fn check_target(stack: &ImageStack, mask: &Mask, tables: &[Table]) -> Result<()> {
     table::check_lights(stack.k, "target images")?;
     mask.check_size(stack.width, stack.height, "target mask")?;
     mask.check_not_empty("target mask")?;
+    for (i, t) in tables.iter().enumerate() {
+        let what = format!("#{} ('{}')", i + 1, t.material);
+        t.check_target(stack.k, &stack.names, &what)?;
+    }
+    Ok(())
+}
+
+/// The tables' and options' checks (the target's are in [`Lookup::solve`]).
+fn check_tables(tables: &[Table], opts: &Options) -> Result<()> {
     if tables.is_empty() || tables.len() > 2 {
         return Err(Error::invalid(
             format!("{} lookup tables", tables.len()),
             "give one table, or two for a mixture of two materials",
         ));
     }
-    for (i, t) in tables.iter().enumerate() {
-        t.check_target(
-            stack.k,
-            &stack.names,
-            &format!("#{} ('{}')", i + 1, t.material),
-        )?;
+    for t in tables {
+        table::check_lights(t.k, &format!("table '{}'", t.material))?;
+    }
+    if let [a, b] = tables {
+        if a.k != b.k {
+            return Err(Error::TableMismatch {
+                what: format!("#2 ('{}')", b.material),
+                reason: format!(
+                    "table #1 has {} lights, table #2 {}; calibrate both spheres under the same lights",
+                    a.k, b.k
+                ),
+            });
+        }
     }
     if opts.split_specular && tables.len() != 1 {
         return Err(Error::invalid(

@@ -44,10 +44,13 @@ const SCAN: usize = 12;
 pub(crate) struct Rim {
     k: usize,
     sectors: usize,
-    /// β of each sector and light, `beta[(s * k + light)]`.
-    beta: Vec<[f32; 3]>,
+    /// β of each sector by component and light, `beta[(s * 3 + j) * k + light]` (one
+    /// contiguous run of K values per component, so that the per-light loops vectorise).
+    beta: Vec<f32>,
     /// Polar angle of the table's last clean ring (radians).
     pub theta_clean: f64,
+    /// The scan's values of θ with their sine and cosine (the same for every pixel).
+    scan: Vec<(f64, f64, f64)>,
 }
 
 /// Workspace of one rim fit.
@@ -55,6 +58,10 @@ pub(crate) struct RimBuf {
     p: Vec<f32>,
     px: Vec<f32>,
     py: Vec<f32>,
+    /// β interpolated at the current azimuth and its derivative in φ, by component
+    /// (`[j * k + light]`).
+    beta: Vec<f32>,
+    dbeta: Vec<f32>,
 }
 
 impl RimBuf {
@@ -63,6 +70,8 @@ impl RimBuf {
             p: vec![0.0; k],
             px: vec![0.0; k],
             py: vec![0.0; k],
+            beta: vec![0.0; 3 * k],
+            dbeta: vec![0.0; 3 * k],
         }
     }
 }
@@ -123,13 +132,21 @@ impl Rim {
                 }
             }
         }
-        let beta = acc
-            .iter()
-            .map(|(m, b, count)| {
-                if *count < MIN_SAMPLES {
-                    return [0.0; 3];
-                }
-                solve3(m, b).map_or([0.0; 3], |x| x.map(|v| v as f32))
+        let mut beta = vec![0.0f32; sectors * 3 * k];
+        for (i, (m, b, count)) in acc.iter().enumerate() {
+            if *count < MIN_SAMPLES {
+                continue;
+            }
+            let (s, light) = (i / k, i % k);
+            if let Some(x) = solve3(m, b) {
+                (0..3).for_each(|j| beta[(s * 3 + j) * k + light] = x[j] as f32);
+            }
+        }
+        let hi = std::f64::consts::FRAC_PI_2;
+        let scan = (0..=SCAN)
+            .map(|j| {
+                let theta = theta_lo + (hi - theta_lo) * j as f64 / SCAN as f64;
+                (theta, theta.sin(), theta.cos())
             })
             .collect();
         (theta_lo > 0.0).then_some(Rim {
@@ -137,6 +154,7 @@ impl Rim {
             sectors,
             beta,
             theta_clean,
+            scan,
         })
     }
 
@@ -151,35 +169,62 @@ impl Rim {
     /// The model's tuple at (θ, φ) into `b.p`, and when `grad`, its derivatives with
     /// respect to θ and φ into `b.px`, `b.py` (0 where the model is clamped at 0).
     fn eval(&self, theta: f64, phi: f64, b: &mut RimBuf, grad: bool) {
-        let (st, ct, sp, cp) = (theta.sin(), theta.cos(), phi.sin(), phi.cos());
+        let (st, ct) = theta.sin_cos();
+        let (sp, cp) = phi.sin_cos();
         let n = [(st * cp) as f32, (st * sp) as f32, ct as f32];
-        let nt = [(ct * cp) as f32, (ct * sp) as f32, -st as f32];
-        let np = [(-st * sp) as f32, (st * cp) as f32, 0.0];
+        self.interpolate(phi, b, grad);
+        Self::at(n, b);
+        if grad {
+            let nt = [(ct * cp) as f32, (ct * sp) as f32, -st as f32];
+            let np = [(-st * sp) as f32, (st * cp) as f32];
+            let k = self.k;
+            let (bx, by, bz) = (&b.beta[..k], &b.beta[k..2 * k], &b.beta[2 * k..3 * k]);
+            let (dx, dy, dz) = (&b.dbeta[..k], &b.dbeta[k..2 * k], &b.dbeta[2 * k..3 * k]);
+            let (p, px, py) = (&b.p[..k], &mut b.px[..k], &mut b.py[..k]);
+            for i in 0..k {
+                let lit = p[i] > 0.0;
+                let gt = bx[i] * nt[0] + by[i] * nt[1] + bz[i] * nt[2];
+                let gp =
+                    (bx[i] * np[0] + by[i] * np[1]) + (dx[i] * n[0] + dy[i] * n[1] + dz[i] * n[2]);
+                px[i] = if lit { gt } else { 0.0 };
+                py[i] = if lit { gp } else { 0.0 };
+            }
+        }
+    }
+
+    /// β interpolated linearly between the sector centres at azimuth φ into `b.beta`,
+    /// and when `grad` its derivative in φ into `b.dbeta`.
+    fn interpolate(&self, phi: f64, b: &mut RimBuf, grad: bool) {
+        let k3 = 3 * self.k;
         let width = std::f64::consts::TAU / self.sectors as f64;
         let u = phi.rem_euclid(std::f64::consts::TAU) / width;
-        let s0 = (u.floor() as usize) % self.sectors;
+        // u ≥ 0: the truncation is the floor
+        let whole = u as usize;
+        let s0 = whole % self.sectors;
         let s1 = (s0 + 1) % self.sectors;
-        let f = (u - u.floor()) as f32;
-        let inv_width = (1.0 / width) as f32;
+        let f = (u - whole as f64) as f32;
         let (b0, b1) = (
-            &self.beta[s0 * self.k..(s0 + 1) * self.k],
-            &self.beta[s1 * self.k..(s1 + 1) * self.k],
+            &self.beta[s0 * k3..(s0 + 1) * k3],
+            &self.beta[s1 * k3..(s1 + 1) * k3],
         );
-        let dot = |a: &[f32; 3], v: [f32; 3]| a[0] * v[0] + a[1] * v[1] + a[2] * v[2];
-        for i in 0..self.k {
-            let beta: [f32; 3] = std::array::from_fn(|j| (1.0 - f) * b0[i][j] + f * b1[i][j]);
-            let v = dot(&beta, n);
-            b.p[i] = v.max(0.0);
-            if grad {
-                let lit = v > 0.0;
-                let dbeta: [f32; 3] = std::array::from_fn(|j| (b1[i][j] - b0[i][j]) * inv_width);
-                b.px[i] = if lit { dot(&beta, nt) } else { 0.0 };
-                b.py[i] = if lit {
-                    dot(&beta, np) + dot(&dbeta, n)
-                } else {
-                    0.0
-                };
+        for ((o, &a), &c) in b.beta[..k3].iter_mut().zip(b0).zip(b1) {
+            *o = (1.0 - f) * a + f * c;
+        }
+        if grad {
+            let inv_width = (1.0 / width) as f32;
+            for ((o, &a), &c) in b.dbeta[..k3].iter_mut().zip(b0).zip(b1) {
+                *o = (c - a) * inv_width;
             }
+        }
+    }
+
+    /// The model's tuple max(0, β·n) at unit normal `n` into `b.p`, with β the
+    /// interpolated coefficients in `b.beta`.
+    fn at(n: [f32; 3], b: &mut RimBuf) {
+        let k = b.p.len();
+        let (bx, by, bz) = (&b.beta[..k], &b.beta[k..2 * k], &b.beta[2 * k..3 * k]);
+        for (i, p) in b.p.iter_mut().enumerate() {
+            *p = (bx[i] * n[0] + by[i] * n[1] + bz[i] * n[2]).max(0.0);
         }
     }
 
@@ -215,12 +260,13 @@ impl Rim {
         b: &mut RimBuf,
     ) -> (f64, f64, f32, f32) {
         let lo = self.theta_clean - RING;
-        let hi = std::f64::consts::FRAC_PI_2;
         let phi = (n0[1] as f64).atan2(n0[0] as f64);
+        // β at this azimuth is the same for the whole scan
+        let (sp, cp) = phi.sin_cos();
+        self.interpolate(phi, b, false);
         let mut best = (lo, f32::INFINITY);
-        for j in 0..=SCAN {
-            let theta = lo + (hi - lo) * j as f64 / SCAN as f64;
-            self.eval(theta, phi, b, false);
+        for &(theta, st, ct) in &self.scan {
+            Self::at([(st * cp) as f32, (st * sp) as f32, ct as f32], b);
             let (_, cost) = Self::cost(t, w, &b.p, scale);
             if cost < best.1 {
                 best = (theta, cost);

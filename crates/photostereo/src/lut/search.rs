@@ -11,7 +11,8 @@ use std::sync::atomic::AtomicU32;
 
 mod certify;
 mod mixture;
-use certify::UNSET;
+mod prep;
+pub(crate) use prep::Prep;
 
 /// Target number of points of the coarse grid used by the exhaustive searches.
 const COARSE_POINTS: usize = 1500;
@@ -120,6 +121,9 @@ pub(crate) struct Work {
     norm: f32,
     /// `q` holds the current pixel's projected query.
     projected: bool,
+    /// `s.seeds` holds the current pixel's tree candidates (the `candidates` entries
+    /// nearest to its query: the same whichever search found them).
+    candidates: bool,
     /// The fast path's buffer holds the current fit's tuple.
     fresh: bool,
     /// The last fast refinement's result position and its final step not taken
@@ -144,6 +148,7 @@ impl Work {
             rim: RimBuf::new(k),
             norm: 0.0,
             projected: false,
+            candidates: false,
             fresh: false,
             settled: (f64::NAN, f64::NAN, [0.0; 2]),
             corner: (u32::MAX, f32::INFINITY),
@@ -164,88 +169,58 @@ pub(crate) struct PixelOut {
     pub lit: u16,
 }
 
-/// Everything shared by the workers.
+/// Everything shared by the workers of one target: the model, the options and the
+/// target-independent [`Prep`] they borrow.
 pub(crate) struct Solver<'a> {
     pub model: Model<'a>,
     pub opts: &'a Options,
     /// Index over table 0's entries (single table only).
-    index: Option<Index>,
+    index: Option<&'a Index>,
     /// Fused refinement (single table only).
     single: Option<Single<'a>>,
     /// Weights 1 for the K lights, 0 for the padding.
     ones: Vec<f32>,
     /// Table 0's entry at each window pixel (row-major), `u32::MAX` where none.
-    entries_at: Vec<u32>,
+    entries_at: &'a [u32],
     /// Coarse grid: positions and the tables' tuples there.
-    coarse_pos: Vec<(f64, f64)>,
-    coarse_basis: [Vec<f32>; 2],
+    coarse_pos: &'a [(f64, f64)],
+    coarse_basis: &'a [Vec<f32>; 2],
     coarse_step: f64,
     /// Brightness scale of each table (largest sample).
     peaks: [f32; 2],
     /// The table's extension past its last clean ring (one table, refined lookup).
-    rim: Option<Rim>,
+    rim: Option<&'a Rim>,
     /// Isolation radius of each entry as f32 bits, computed when first needed
-    /// ([`UNSET`] before; see `certified`; one table, refined lookup).
-    isolation: Vec<AtomicU32>,
+    /// (`certify::UNSET` before; see `certified`; one table, refined lookup).
+    isolation: &'a [AtomicU32],
     /// The coarse grid in the mixture's scan layout (two tables only).
-    mixture: Option<mixture::Scan>,
+    mixture: Option<&'a mixture::Scan>,
     /// The mixture runs its exhaustive search at every pixel (no warm start; tests).
     exhaustive_only: bool,
 }
 
 impl<'a> Solver<'a> {
-    pub fn new(model: Model<'a>, opts: &'a Options) -> Self {
-        let t0 = &model.tables[0];
+    /// The solver of one target on the prepared `prep` (built from the same model and
+    /// options).
+    pub fn with(model: Model<'a>, opts: &'a Options, prep: &'a Prep) -> Self {
         let k = model.k;
-        let n = t0.entries.len();
-        let mut ranked = std::borrow::Cow::Borrowed(&t0.entries.tuples[..]);
-        let mut keep = vec![true; n];
-        if opts.normalize {
-            for (e, tuple) in ranked.to_mut().chunks_exact_mut(k).enumerate() {
-                let norm = tuple.iter().map(|v| v * v).sum::<f32>().sqrt();
-                keep[e] = norm > 1e-6;
-                tuple.iter_mut().for_each(|v| *v /= norm.max(1e-6));
-            }
-        }
-        let dims = match opts.method {
-            Method::InverseDistance { .. } => k,
-            _ => opts.pca_dims,
-        };
-        // the index on one worker, the coarse grid and the rim model on the other
-        let (index, ((coarse_pos, coarse_basis, coarse_step), rim)) = rayon::join(
-            || (!model.is_mix()).then(|| Index::build(&ranked, k, &keep, dims)),
-            || {
-                let rim = (!model.is_mix() && opts.method == Method::Refined)
-                    .then(|| Rim::fit(t0))
-                    .flatten();
-                (coarse_grid(&model), rim)
-            },
-        );
-        let peaks = [t0.peak(), model.tables.get(1).map_or(0.0, |t| t.peak())];
-        let single = (!model.is_mix()).then(|| Single::new(t0, opts.normalize));
+        let single = (!model.is_mix()).then(|| Single::new(&model.tables[0], opts.normalize));
         let mut ones = vec![0.0; single::padded(k)];
         ones[..k].fill(1.0);
-        let ws = &t0.window.stack;
-        let mut entries_at = vec![u32::MAX; ws.width * ws.height];
-        for (e, [r, c]) in t0.entries.pixels.iter().enumerate() {
-            let (r, c) = (*r as usize - t0.window.row0, *c as usize - t0.window.col0);
-            entries_at[r * ws.width + c] = e as u32;
-        }
-        let mixture = model.is_mix().then(|| mixture::Scan::new(&coarse_basis, k));
         Solver {
             model,
             opts,
-            index,
+            index: prep.index.as_ref(),
             single,
             ones,
-            entries_at,
-            coarse_pos,
-            coarse_basis,
-            coarse_step,
-            peaks,
-            rim,
-            isolation: (0..n).map(|_| AtomicU32::new(UNSET)).collect(),
-            mixture,
+            entries_at: &prep.entries_at,
+            coarse_pos: &prep.coarse_pos,
+            coarse_basis: &prep.coarse_basis,
+            coarse_step: prep.coarse_step,
+            peaks: prep.peaks,
+            rim: prep.rim.as_ref(),
+            isolation: &prep.isolation,
+            mixture: prep.mixture.as_ref(),
             exhaustive_only: false,
         }
     }
@@ -278,6 +253,7 @@ impl<'a> Solver<'a> {
         wk.fresh = false;
         wk.projected = false;
         wk.corner.0 = u32::MAX;
+        wk.candidates = false;
         if let (Some(index), Method::InverseDistance { neighbours }) =
             (&self.index, self.opts.method)
         {
@@ -564,8 +540,12 @@ impl<'a> Solver<'a> {
     /// re-ranked on the full K-dimensional cost with the weights in `wk.w` (`weighted`)
     /// or all lights; the best one as a fit. The search is seeded with the previous pixel's
     /// candidates, or with the entries around `near` when checking a fit (seeds only
-    /// speed the search up: the candidates are the same).
+    /// speed the search up: the candidates are the same); it is not run again when this
+    /// pixel's candidates are known already (the masked shortcut's check found them).
     fn tree_match(&self, index: &Index, near: Option<&Fit>, weighted: bool, wk: &mut Work) -> Fit {
+        if wk.candidates {
+            return self.best_of_seeds(weighted, wk);
+        }
         self.query(index, wk);
         if let Some(f) = near {
             wk.s.seeds.clear();
@@ -583,6 +563,7 @@ impl<'a> Solver<'a> {
         let cands = index.nearest(&wk.q[..index.dims()], self.opts.candidates, &wk.s.seeds);
         wk.s.seeds.clear();
         wk.s.seeds.extend_from_slice(&cands.ids[..cands.len]);
+        wk.candidates = true;
         self.best_of_seeds(weighted, wk)
     }
 

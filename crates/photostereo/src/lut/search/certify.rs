@@ -31,8 +31,8 @@ const RING: [(i64, i64); 16] = [
 ];
 /// Bits of an isolation radius not computed yet (a NaN that `isolation_of` never stores).
 pub(super) const UNSET: u32 = u32::MAX;
-/// Leaves the branch and bound of an uncertified shortcut may visit before the pixel
-/// goes through the plain tree search instead.
+/// Leaves that the branch and bound of an uncertified shortcut may visit: when its
+/// initial search ball meets more, the pixel goes through the plain tree search instead.
 const BOUND_LEAVES: usize = 48;
 
 impl Solver<'_> {
@@ -68,6 +68,26 @@ impl Solver<'_> {
         };
         slot.store(rho.to_bits(), Ordering::Relaxed);
         rho
+    }
+
+    /// Compute the isolation radius of every entry at an even grid point (even row and
+    /// column: the anchors of [`Solver::certified`]), in parallel.
+    pub(super) fn fill_isolation(&self) {
+        use rayon::prelude::*;
+        let Some(index) = self.index else {
+            return;
+        };
+        let pixels = &self.model.tables[0].entries.pixels;
+        (0..pixels.len() as u32)
+            .into_par_iter()
+            .with_min_len(256)
+            .filter(|&e| {
+                let (gx, gy) = self.entry_grid(e);
+                (gx as i64) % 2 == 0 && (gy as i64) % 2 == 0
+            })
+            .for_each(|e| {
+                self.isolation_of(index, e);
+            });
     }
 
     /// The certificate of the coherence shortcut (module docs, step 1): no table entry
@@ -141,8 +161,8 @@ impl Solver<'_> {
 
     /// Branch and bound over the index for a table entry that fits the target better
     /// than `f` (all lights; module docs, step 1): `Some(None)` when none does,
-    /// `Some(Some(fit))` at the best one, `None` when the search ran over its budget of
-    /// [`BOUND_LEAVES`] leaves.
+    /// `Some(Some(fit))` at the best one, `None` when its initial ball (from `f`'s cost)
+    /// meets more than [`BOUND_LEAVES`] leaves.
     pub(super) fn better_entry(
         &self,
         index: &Index,
@@ -174,6 +194,7 @@ impl Solver<'_> {
         let (gx, gy) = self.entry_grid(e);
         wk.s.seeds.clear();
         wk.s.seeds.push(e);
+        wk.candidates = false;
         Some(Some(Fit { gx, gy, coef, cost }))
     }
 

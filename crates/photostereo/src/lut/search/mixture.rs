@@ -399,7 +399,9 @@ mod tests {
         opts: &Options,
         exhaustive: bool,
     ) -> Vec<PixelOut> {
-        let mut solver = Solver::new(Model::new(tables, opts.normalize), opts);
+        let model = Model::new(tables, opts.normalize);
+        let prep = crate::lut::search::Prep::new(&model, opts);
+        let mut solver = Solver::with(model, opts, &prep);
         solver.exhaustive_only = exhaustive;
         let mut out = Vec::new();
         for r in 0..stack.height {
