@@ -311,17 +311,34 @@ impl<'a> Single<'a> {
         let (t, w) = (&t[..kp], &w[..if W { kp } else { 0 }]);
         // the certificate's corner (without a scale): offset of its tuple in `d`
         let (ce, re) = (even(gx), even(gy));
-        let corner = (!SCALE && ce.wrapping_sub(c0) < 2 && re.wrapping_sub(r0) < 2)
-            .then(|| (re - r0) * bot + (ce - c0) * kp);
-        let eo = corner.unwrap_or(0);
+        let corner = !SCALE && ce.wrapping_sub(c0) < 2 && re.wrapping_sub(r0) < 2;
+        let eo = if corner {
+            (re - r0) * bot + (ce - c0) * kp
+        } else {
+            0
+        };
         let z = V::zero();
         let (mut ti, mut ii, mut h11, mut h12, mut h22) = (z, z, z, z, z);
         let (mut xi, mut yi) = (z, z);
         let mut res = [z; 3];
-        for o in (0..kp).step_by(V::N) {
-            let (x00, x01) = (V::load(d, o), V::load(d, kp + o));
-            let (x10, x11) = (V::load(d, bot + o), V::load(d, bot + kp + o));
-            let tl = V::load(t, o);
+        // the four cells, the corner and the target in blocks of N (exact chunks: no
+        // bounds checks in the loop)
+        let n = V::N;
+        let (up_row, down_row) = (&d[..2 * kp], &d[bot..bot + 2 * kp]);
+        let cells = up_row[..kp]
+            .chunks_exact(n)
+            .zip(up_row[kp..].chunks_exact(n));
+        let cells = cells.zip(
+            down_row[..kp]
+                .chunks_exact(n)
+                .zip(down_row[kp..].chunks_exact(n)),
+        );
+        let rest = d[eo..eo + kp].chunks_exact(n).zip(t.chunks_exact(n));
+        for (i, (((x00, x01), (x10, x11)), (ec, tc))) in cells.zip(rest).enumerate() {
+            let o = i * n;
+            let (x00, x01) = (V::load(x00, 0), V::load(x01, 0));
+            let (x10, x11) = (V::load(x10, 0), V::load(x11, 0));
+            let tl = V::load(tc, 0);
             let (e0, e1) = (x01.sub(x00), x11.sub(x10));
             let up = x00.mul_add(e0, a);
             let dy = x10.mul_add(e1, a).sub(up);
@@ -347,7 +364,7 @@ impl<'a> Single<'a> {
                 yi = yi.mul_add(wv, dy);
             } else {
                 accumulate::<V, W>(&mut res, tl.sub(v), w, o, dx, dy);
-                let q = tl.sub(V::load(d, eo + o));
+                let q = tl.sub(V::load(ec, 0));
                 xi = xi.mul_add(q, q);
             }
         }
@@ -368,8 +385,8 @@ impl<'a> Single<'a> {
             res,
         };
         let (mut p, d2) = point(gx, gy, c, SCALE, &sums);
-        if let Some(eo) = corner {
-            p.corner = ((top + eo) / kp) as u32;
+        if corner {
+            p.corner = (re * self.width + ce) as u32;
             p.corner_d2 = d2;
         }
         p
