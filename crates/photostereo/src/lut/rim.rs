@@ -39,13 +39,20 @@ const DARK: f32 = 0.01;
 const ITERATIONS: usize = 8;
 /// Steps of the scan of θ that starts a rim fit.
 const SCAN: usize = 12;
+/// Gauss–Newton stops when its step (θ, φ, radians) is shorter than this.
+const STOP: f64 = 1e-5;
+/// Width of the per-light loops (the tuples are padded with zeros to a multiple of it).
+const LANES: usize = 8;
 
 /// The fitted extension of one table (see the module docs).
 pub(crate) struct Rim {
     k: usize,
+    /// K padded to a multiple of [`LANES`].
+    kp: usize,
     sectors: usize,
-    /// β of each sector by component and light, `beta[(s * 3 + j) * k + light]` (one
-    /// contiguous run of K values per component, so that the per-light loops vectorise).
+    /// β of each sector by component and light, `beta[(s * 3 + j) * kp + light]` (one
+    /// contiguous run per component, zeros beyond K, so that the per-light loops
+    /// vectorise).
     beta: Vec<f32>,
     /// Polar angle of the table's last clean ring (radians).
     pub theta_clean: f64,
@@ -53,27 +60,47 @@ pub(crate) struct Rim {
     scan: Vec<(f64, f64, f64)>,
 }
 
-/// Workspace of one rim fit.
+/// Workspace of one rim fit (every vector padded with zeros to `kp` values).
 pub(crate) struct RimBuf {
+    /// The target and its weights.
+    t: Vec<f32>,
+    w: Vec<f32>,
+    /// The model's tuple at the current point, and its derivatives in θ and φ.
     p: Vec<f32>,
     px: Vec<f32>,
     py: Vec<f32>,
     /// β interpolated at the current azimuth and its derivative in φ, by component
-    /// (`[j * k + light]`).
+    /// (`[j * kp + light]`).
     beta: Vec<f32>,
     dbeta: Vec<f32>,
+    /// sin θ, cos θ, sin φ, cos φ at the current point.
+    trig: [f64; 4],
 }
 
 impl RimBuf {
     pub fn new(k: usize) -> Self {
+        let kp = padded(k);
         RimBuf {
-            p: vec![0.0; k],
-            px: vec![0.0; k],
-            py: vec![0.0; k],
-            beta: vec![0.0; 3 * k],
-            dbeta: vec![0.0; 3 * k],
+            t: vec![0.0; kp],
+            w: vec![0.0; kp],
+            p: vec![0.0; kp],
+            px: vec![0.0; kp],
+            py: vec![0.0; kp],
+            beta: vec![0.0; 3 * kp],
+            dbeta: vec![0.0; 3 * kp],
+            trig: [0.0; 4],
         }
     }
+}
+
+/// K rounded up to a multiple of [`LANES`].
+fn padded(k: usize) -> usize {
+    k.div_ceil(LANES) * LANES
+}
+
+/// Sum of the lanes of a partial sum (pairwise).
+fn lanes_sum(a: [f32; LANES]) -> f32 {
+    ((a[0] + a[4]) + (a[2] + a[6])) + ((a[1] + a[5]) + (a[3] + a[7]))
 }
 
 /// Unit normal at polar angle θ and azimuth φ (x right, y up, z to the camera).
@@ -132,14 +159,15 @@ impl Rim {
                 }
             }
         }
-        let mut beta = vec![0.0f32; sectors * 3 * k];
+        let kp = padded(k);
+        let mut beta = vec![0.0f32; sectors * 3 * kp];
         for (i, (m, b, count)) in acc.iter().enumerate() {
             if *count < MIN_SAMPLES {
                 continue;
             }
             let (s, light) = (i / k, i % k);
             if let Some(x) = solve3(m, b) {
-                (0..3).for_each(|j| beta[(s * 3 + j) * k + light] = x[j] as f32);
+                (0..3).for_each(|j| beta[(s * 3 + j) * kp + light] = x[j] as f32);
             }
         }
         let hi = std::f64::consts::FRAC_PI_2;
@@ -151,6 +179,7 @@ impl Rim {
             .collect();
         (theta_lo > 0.0).then_some(Rim {
             k,
+            kp,
             sectors,
             beta,
             theta_clean,
@@ -162,40 +191,44 @@ impl Rim {
     pub fn tuple<'b>(&self, n: [f32; 3], b: &'b mut RimBuf) -> &'b [f32] {
         let theta = (n[2] as f64).clamp(-1.0, 1.0).acos();
         let phi = (n[1] as f64).atan2(n[0] as f64);
-        self.eval(theta, phi, b, false);
-        &b.p
+        self.value(theta, phi, b);
+        &b.p[..self.k]
     }
 
-    /// The model's tuple at (θ, φ) into `b.p`, and when `grad`, its derivatives with
-    /// respect to θ and φ into `b.px`, `b.py` (0 where the model is clamped at 0).
-    fn eval(&self, theta: f64, phi: f64, b: &mut RimBuf, grad: bool) {
+    /// The model's tuple at (θ, φ) into `b.p` (β and the trigonometry kept in `b` for
+    /// [`Rim::grad`]).
+    fn value(&self, theta: f64, phi: f64, b: &mut RimBuf) {
         let (st, ct) = theta.sin_cos();
         let (sp, cp) = phi.sin_cos();
+        b.trig = [st, ct, sp, cp];
+        self.interpolate(phi, b);
+        Self::at([(st * cp) as f32, (st * sp) as f32, ct as f32], b);
+    }
+
+    /// The derivatives of the tuple with respect to θ and φ at the point of the last
+    /// [`Rim::value`] into `b.px`, `b.py` (0 where the model is clamped at 0).
+    fn grad(&self, b: &mut RimBuf) {
+        let [st, ct, sp, cp] = b.trig;
         let n = [(st * cp) as f32, (st * sp) as f32, ct as f32];
-        self.interpolate(phi, b, grad);
-        Self::at(n, b);
-        if grad {
-            let nt = [(ct * cp) as f32, (ct * sp) as f32, -st as f32];
-            let np = [(-st * sp) as f32, (st * cp) as f32];
-            let k = self.k;
-            let (bx, by, bz) = (&b.beta[..k], &b.beta[k..2 * k], &b.beta[2 * k..3 * k]);
-            let (dx, dy, dz) = (&b.dbeta[..k], &b.dbeta[k..2 * k], &b.dbeta[2 * k..3 * k]);
-            let (p, px, py) = (&b.p[..k], &mut b.px[..k], &mut b.py[..k]);
-            for i in 0..k {
-                let lit = p[i] > 0.0;
-                let gt = bx[i] * nt[0] + by[i] * nt[1] + bz[i] * nt[2];
-                let gp =
-                    (bx[i] * np[0] + by[i] * np[1]) + (dx[i] * n[0] + dy[i] * n[1] + dz[i] * n[2]);
-                px[i] = if lit { gt } else { 0.0 };
-                py[i] = if lit { gp } else { 0.0 };
-            }
+        let nt = [(ct * cp) as f32, (ct * sp) as f32, -st as f32];
+        let np = [(-st * sp) as f32, (st * cp) as f32];
+        let kp = self.kp;
+        let (bx, by, bz) = (&b.beta[..kp], &b.beta[kp..2 * kp], &b.beta[2 * kp..]);
+        let (dx, dy, dz) = (&b.dbeta[..kp], &b.dbeta[kp..2 * kp], &b.dbeta[2 * kp..]);
+        let (p, px, py) = (&b.p[..kp], &mut b.px[..kp], &mut b.py[..kp]);
+        for i in 0..kp {
+            let lit = p[i] > 0.0;
+            let gt = bx[i] * nt[0] + by[i] * nt[1] + bz[i] * nt[2];
+            let gp = (bx[i] * np[0] + by[i] * np[1]) + (dx[i] * n[0] + dy[i] * n[1] + dz[i] * n[2]);
+            px[i] = if lit { gt } else { 0.0 };
+            py[i] = if lit { gp } else { 0.0 };
         }
     }
 
     /// β interpolated linearly between the sector centres at azimuth φ into `b.beta`,
-    /// and when `grad` its derivative in φ into `b.dbeta`.
-    fn interpolate(&self, phi: f64, b: &mut RimBuf, grad: bool) {
-        let k3 = 3 * self.k;
+    /// and its derivative in φ into `b.dbeta`.
+    fn interpolate(&self, phi: f64, b: &mut RimBuf) {
+        let k3 = 3 * self.kp;
         let width = std::f64::consts::TAU / self.sectors as f64;
         let u = phi.rem_euclid(std::f64::consts::TAU) / width;
         // u ≥ 0: the truncation is the floor
@@ -203,39 +236,46 @@ impl Rim {
         let s0 = whole % self.sectors;
         let s1 = (s0 + 1) % self.sectors;
         let f = (u - whole as f64) as f32;
+        let inv_width = (1.0 / width) as f32;
         let (b0, b1) = (
             &self.beta[s0 * k3..(s0 + 1) * k3],
             &self.beta[s1 * k3..(s1 + 1) * k3],
         );
-        for ((o, &a), &c) in b.beta[..k3].iter_mut().zip(b0).zip(b1) {
-            *o = (1.0 - f) * a + f * c;
-        }
-        if grad {
-            let inv_width = (1.0 / width) as f32;
-            for ((o, &a), &c) in b.dbeta[..k3].iter_mut().zip(b0).zip(b1) {
-                *o = (c - a) * inv_width;
-            }
+        let (beta, dbeta) = (&mut b.beta[..k3], &mut b.dbeta[..k3]);
+        for i in 0..k3 {
+            beta[i] = (1.0 - f) * b0[i] + f * b1[i];
+            dbeta[i] = (b1[i] - b0[i]) * inv_width;
         }
     }
 
     /// The model's tuple max(0, β·n) at unit normal `n` into `b.p`, with β the
     /// interpolated coefficients in `b.beta`.
     fn at(n: [f32; 3], b: &mut RimBuf) {
-        let k = b.p.len();
-        let (bx, by, bz) = (&b.beta[..k], &b.beta[k..2 * k], &b.beta[2 * k..3 * k]);
+        let kp = b.p.len();
+        let (bx, by, bz) = (&b.beta[..kp], &b.beta[kp..2 * kp], &b.beta[2 * kp..]);
         for (i, p) in b.p.iter_mut().enumerate() {
             *p = (bx[i] * n[0] + by[i] * n[1] + bz[i] * n[2]).max(0.0);
         }
     }
 
-    /// Scale (1, or fitted and ≥ 0 when `scale`) and weighted cost of `p` against `t`.
-    fn cost(t: &[f32], w: &[f32], p: &[f32], scale: bool) -> (f32, f32) {
+    /// Scale (1, or fitted and ≥ 0 when `scale`) and weighted cost of `b.p` against
+    /// `b.t` ([`LANES`] partial sums).
+    fn cost(b: &RimBuf, scale: bool) -> (f32, f32) {
+        let (t, w, p) = (&b.t[..], &b.w[..], &b.p[..]);
+        let chunks = || {
+            t.chunks_exact(LANES)
+                .zip(w.chunks_exact(LANES))
+                .zip(p.chunks_exact(LANES))
+        };
         let c = if scale {
-            let (mut tp, mut pp) = (0.0f32, 0.0f32);
-            for i in 0..t.len() {
-                tp += w[i] * t[i] * p[i];
-                pp += w[i] * p[i] * p[i];
+            let (mut tp, mut pp) = ([0.0f32; LANES], [0.0f32; LANES]);
+            for ((t, w), p) in chunks() {
+                for j in 0..LANES {
+                    tp[j] += w[j] * t[j] * p[j];
+                    pp[j] += w[j] * p[j] * p[j];
+                }
             }
+            let (tp, pp) = (lanes_sum(tp), lanes_sum(pp));
             if pp > 0.0 {
                 (tp / pp).max(0.0)
             } else {
@@ -244,13 +284,18 @@ impl Rim {
         } else {
             1.0
         };
-        let cost = (0..t.len()).map(|i| w[i] * (t[i] - c * p[i]).powi(2)).sum();
-        (c, cost)
+        let mut acc = [0.0f32; LANES];
+        for ((t, w), p) in chunks() {
+            for j in 0..LANES {
+                acc[j] += w[j] * (t[j] - c * p[j]).powi(2);
+            }
+        }
+        (c, lanes_sum(acc))
     }
 
-    /// Fit (θ, φ) to the target `t` with weights `w` from the table fit's normal `n0`: a
-    /// scan of θ at the table fit's azimuth, then Gauss–Newton from the best point;
-    /// returns (θ, φ, scale, cost).
+    /// Fit (θ, φ) to the target `t` with weights `w` (K values each) from the table
+    /// fit's normal `n0`: a scan of θ at the table fit's azimuth, then Gauss–Newton from
+    /// the best point; returns (θ, φ, scale, cost).
     pub fn solve(
         &self,
         t: &[f32],
@@ -259,63 +304,52 @@ impl Rim {
         scale: bool,
         b: &mut RimBuf,
     ) -> (f64, f64, f32, f32) {
+        b.t[..self.k].copy_from_slice(&t[..self.k]);
+        b.w[..self.k].copy_from_slice(&w[..self.k]);
         let lo = self.theta_clean - RING;
         let phi = (n0[1] as f64).atan2(n0[0] as f64);
         // β at this azimuth is the same for the whole scan
         let (sp, cp) = phi.sin_cos();
-        self.interpolate(phi, b, false);
+        self.interpolate(phi, b);
         let mut best = (lo, f32::INFINITY);
         for &(theta, st, ct) in &self.scan {
             Self::at([(st * cp) as f32, (st * sp) as f32, ct as f32], b);
-            let (_, cost) = Self::cost(t, w, &b.p, scale);
+            let (_, cost) = Self::cost(b, scale);
             if cost < best.1 {
                 best = (theta, cost);
             }
         }
-        self.gauss_newton(t, w, best.0, phi, scale, b)
+        self.gauss_newton(best.0, phi, scale, b)
     }
 
-    /// Gauss–Newton over (θ, φ) (variable projection for the scale: the Jacobian of c·I
-    /// is taken at fixed c, which is exact at a converged c), θ kept in
-    /// [θ_c − 12°, 90°], step halving.
+    /// Gauss–Newton over (θ, φ) on the target in `b` (variable projection for the
+    /// scale: the Jacobian of c·I is taken at fixed c, which is exact at a converged c),
+    /// θ kept in [θ_c − 12°, 90°], step halving; a step shorter than [`STOP`] ends it
+    /// untaken.
     fn gauss_newton(
         &self,
-        t: &[f32],
-        w: &[f32],
         mut theta: f64,
         mut phi: f64,
         scale: bool,
         b: &mut RimBuf,
     ) -> (f64, f64, f32, f32) {
         let (lo, hi) = (self.theta_clean - RING, std::f64::consts::FRAC_PI_2);
-        self.eval(theta, phi, b, true);
-        let (mut c, mut cost) = Self::cost(t, w, &b.p, scale);
-        for _ in 0..ITERATIONS {
-            let (mut h11, mut h12, mut h22, mut g1, mut g2) = (0.0f64, 0.0, 0.0, 0.0, 0.0);
-            for i in 0..t.len() {
-                let jx = (c * b.px[i]) as f64;
-                let jy = (c * b.py[i]) as f64;
-                let r = (t[i] - c * b.p[i]) as f64;
-                let wi = w[i] as f64;
-                h11 += wi * jx * jx;
-                h12 += wi * jx * jy;
-                h22 += wi * jy * jy;
-                g1 += wi * jx * r;
-                g2 += wi * jy * r;
-            }
-            let damp = 1e-6 * (h11 + h22) + 1e-18;
-            let (a, d) = (h11 + damp, h22 + damp);
-            let det = a * d - h12 * h12;
-            if det.is_nan() || det <= 0.0 {
+        self.value(theta, phi, b);
+        self.grad(b);
+        let (mut c, mut cost) = Self::cost(b, scale);
+        for it in 0..ITERATIONS {
+            let Some((mut dt, mut dp)) = Self::step(b, c) else {
+                break;
+            };
+            let first = (theta + dt).clamp(lo, hi) - theta;
+            if first * first + dp * dp < STOP * STOP {
                 break;
             }
-            let mut dt = (d * g1 - h12 * g2) / det;
-            let mut dp = (a * g2 - h12 * g1) / det;
             let mut moved = false;
             for _ in 0..4 {
                 let (nt, np) = ((theta + dt).clamp(lo, hi), phi + dp);
-                self.eval(nt, np, b, true);
-                let (nc, ncost) = Self::cost(t, w, &b.p, scale);
+                self.value(nt, np, b);
+                let (nc, ncost) = Self::cost(b, scale);
                 if ncost <= cost {
                     (dt, dp) = (nt - theta, np - phi);
                     (theta, phi, c, cost) = (nt, np, nc, ncost);
@@ -325,11 +359,44 @@ impl Rim {
                 dt *= 0.5;
                 dp *= 0.5;
             }
-            if !moved || dt * dt + dp * dp < 1e-10 {
+            if !moved || dt * dt + dp * dp < STOP * STOP || it + 1 == ITERATIONS {
                 break;
             }
+            self.grad(b);
         }
         (theta, phi, c, cost)
+    }
+
+    /// The damped Gauss–Newton step (Δθ, Δφ) from the tuple and derivatives in `b` at
+    /// scale `c`; `None` when the normal equations are singular.
+    fn step(b: &RimBuf, c: f32) -> Option<(f64, f64)> {
+        // four f64 partial sums of each of h11, h12, h22, g1, g2
+        let mut acc = [[0.0f64; 4]; 5];
+        let quads = b.t.chunks_exact(4).zip(b.w.chunks_exact(4));
+        let derivs =
+            b.p.chunks_exact(4)
+                .zip(b.px.chunks_exact(4).zip(b.py.chunks_exact(4)));
+        for ((t, w), (p, (px, py))) in quads.zip(derivs) {
+            for j in 0..4 {
+                let jx = (c * px[j]) as f64;
+                let jy = (c * py[j]) as f64;
+                let r = (t[j] - c * p[j]) as f64;
+                let wi = w[j] as f64;
+                acc[0][j] += wi * jx * jx;
+                acc[1][j] += wi * jx * jy;
+                acc[2][j] += wi * jy * jy;
+                acc[3][j] += wi * jx * r;
+                acc[4][j] += wi * jy * r;
+            }
+        }
+        let [h11, h12, h22, g1, g2] = acc.map(|a| (a[0] + a[2]) + (a[1] + a[3]));
+        let damp = 1e-6 * (h11 + h22) + 1e-18;
+        let (a, d) = (h11 + damp, h22 + damp);
+        let det = a * d - h12 * h12;
+        if det.is_nan() || det <= 0.0 {
+            return None;
+        }
+        Some(((d * g1 - h12 * g2) / det, (a * g2 - h12 * g1) / det))
     }
 
     /// The rim fit as a table fit: the grid point whose sphere normal is that of (θ, φ).
