@@ -58,6 +58,8 @@ pub(crate) struct Rim {
     pub theta_clean: f64,
     /// The scan's values of θ with their sine and cosine (the same for every pixel).
     scan: Vec<(f64, f64, f64)>,
+    /// The processor has AVX: the fit runs on 8-lane vectors (same arithmetic).
+    avx: bool,
 }
 
 /// Workspace of one rim fit (every vector padded with zeros to `kp` values).
@@ -75,6 +77,8 @@ pub(crate) struct RimBuf {
     dbeta: Vec<f32>,
     /// sin θ, cos θ, sin φ, cos φ at the current point.
     trig: [f64; 4],
+    /// β_x cos φ + β_y sin φ at the scan's azimuth.
+    a: Vec<f32>,
 }
 
 impl RimBuf {
@@ -89,7 +93,20 @@ impl RimBuf {
             beta: vec![0.0; 3 * kp],
             dbeta: vec![0.0; 3 * kp],
             trig: [0.0; 4],
+            a: vec![0.0; kp],
         }
+    }
+}
+
+/// Whether the processor has AVX (checked once per [`Rim`]).
+fn avx_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
 
@@ -184,6 +201,7 @@ impl Rim {
             beta,
             theta_clean,
             scan,
+            avx: avx_available(),
         })
     }
 
@@ -197,6 +215,7 @@ impl Rim {
 
     /// The model's tuple at (θ, φ) into `b.p` (β and the trigonometry kept in `b` for
     /// [`Rim::grad`]).
+    #[inline(always)]
     fn value(&self, theta: f64, phi: f64, b: &mut RimBuf) {
         let (st, ct) = theta.sin_cos();
         let (sp, cp) = phi.sin_cos();
@@ -207,6 +226,7 @@ impl Rim {
 
     /// The derivatives of the tuple with respect to θ and φ at the point of the last
     /// [`Rim::value`] into `b.px`, `b.py` (0 where the model is clamped at 0).
+    #[inline(always)]
     fn grad(&self, b: &mut RimBuf) {
         let [st, ct, sp, cp] = b.trig;
         let n = [(st * cp) as f32, (st * sp) as f32, ct as f32];
@@ -227,6 +247,7 @@ impl Rim {
 
     /// β interpolated linearly between the sector centres at azimuth φ into `b.beta`,
     /// and its derivative in φ into `b.dbeta`.
+    #[inline(always)]
     fn interpolate(&self, phi: f64, b: &mut RimBuf) {
         let k3 = 3 * self.kp;
         let width = std::f64::consts::TAU / self.sectors as f64;
@@ -250,6 +271,7 @@ impl Rim {
 
     /// The model's tuple max(0, β·n) at unit normal `n` into `b.p`, with β the
     /// interpolated coefficients in `b.beta`.
+    #[inline(always)]
     fn at(n: [f32; 3], b: &mut RimBuf) {
         let kp = b.p.len();
         let (bx, by, bz) = (&b.beta[..kp], &b.beta[kp..2 * kp], &b.beta[2 * kp..]);
@@ -260,6 +282,7 @@ impl Rim {
 
     /// Scale (1, or fitted and ≥ 0 when `scale`) and weighted cost of `b.p` against
     /// `b.t` ([`LANES`] partial sums).
+    #[inline(always)]
     fn cost(b: &RimBuf, scale: bool) -> (f32, f32) {
         let (t, w, p) = (&b.t[..], &b.w[..], &b.p[..]);
         let chunks = || {
@@ -304,28 +327,90 @@ impl Rim {
         scale: bool,
         b: &mut RimBuf,
     ) -> (f64, f64, f32, f32) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is set only where the processor reports AVX (`Rim::fit`)
+            return unsafe { self.solve_avx(t, w, n0, scale, b) };
+        }
+        self.solve_any(t, w, n0, scale, b)
+    }
+
+    /// [`Rim::solve`] compiled with AVX (8-lane loops; no fused multiply-add, so the
+    /// same results as the generic build). Safety: call only where the processor has AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn solve_avx(
+        &self,
+        t: &[f32],
+        w: &[f32],
+        n0: [f32; 3],
+        scale: bool,
+        b: &mut RimBuf,
+    ) -> (f64, f64, f32, f32) {
+        self.solve_any(t, w, n0, scale, b)
+    }
+
+    /// [`Rim::solve`] for any instruction set (inlined into each build).
+    #[inline(always)]
+    fn solve_any(
+        &self,
+        t: &[f32],
+        w: &[f32],
+        n0: [f32; 3],
+        scale: bool,
+        b: &mut RimBuf,
+    ) -> (f64, f64, f32, f32) {
         b.t[..self.k].copy_from_slice(&t[..self.k]);
         b.w[..self.k].copy_from_slice(&w[..self.k]);
-        let lo = self.theta_clean - RING;
         let phi = (n0[1] as f64).atan2(n0[0] as f64);
-        // β at this azimuth is the same for the whole scan
+        let theta = self.scan(phi, scale, b);
+        self.gauss_newton(theta, phi, scale, b)
+    }
+
+    /// The scan's θ of least cost at azimuth φ on the target in `b`. At fixed φ the
+    /// model is max(0, sin θ·a + cos θ·β_z), a = β_x cos φ + β_y sin φ.
+    #[inline(always)]
+    fn scan(&self, phi: f64, scale: bool, b: &mut RimBuf) -> f64 {
+        let kp = self.kp;
         let (sp, cp) = phi.sin_cos();
         self.interpolate(phi, b);
-        let mut best = (lo, f32::INFINITY);
+        let (sp, cp) = (sp as f32, cp as f32);
+        let (bx, by, bz) = (&b.beta[..kp], &b.beta[kp..2 * kp], &b.beta[2 * kp..3 * kp]);
+        for ((a, &x), &y) in b.a.iter_mut().zip(bx).zip(by) {
+            *a = x * cp + y * sp;
+        }
+        let mut best = (self.theta_clean - RING, f32::INFINITY);
         for &(theta, st, ct) in &self.scan {
-            Self::at([(st * cp) as f32, (st * sp) as f32, ct as f32], b);
-            let (_, cost) = Self::cost(b, scale);
+            let (st, ct) = (st as f32, ct as f32);
+            let cost = if scale {
+                for ((p, &a), &z) in b.p.iter_mut().zip(&b.a).zip(bz) {
+                    *p = (st * a + ct * z).max(0.0);
+                }
+                Self::cost(b, true).1
+            } else {
+                let mut acc = [0.0f32; LANES];
+                let model = b.a.chunks_exact(LANES).zip(bz.chunks_exact(LANES));
+                let target = b.t.chunks_exact(LANES).zip(b.w.chunks_exact(LANES));
+                for ((a, z), (t, w)) in model.zip(target) {
+                    for j in 0..LANES {
+                        let p = (st * a[j] + ct * z[j]).max(0.0);
+                        acc[j] += w[j] * (t[j] - p).powi(2);
+                    }
+                }
+                lanes_sum(acc)
+            };
             if cost < best.1 {
                 best = (theta, cost);
             }
         }
-        self.gauss_newton(best.0, phi, scale, b)
+        best.0
     }
 
     /// Gauss–Newton over (θ, φ) on the target in `b` (variable projection for the
     /// scale: the Jacobian of c·I is taken at fixed c, which is exact at a converged c),
     /// θ kept in [θ_c − 12°, 90°], step halving; a step shorter than [`STOP`] ends it
     /// untaken.
+    #[inline(always)]
     fn gauss_newton(
         &self,
         mut theta: f64,
@@ -369,6 +454,7 @@ impl Rim {
 
     /// The damped Gauss–Newton step (Δθ, Δφ) from the tuple and derivatives in `b` at
     /// scale `c`; `None` when the normal equations are singular.
+    #[inline(always)]
     fn step(b: &RimBuf, c: f32) -> Option<(f64, f64)> {
         // four f64 partial sums of each of h11, h12, h22, g1, g2
         let mut acc = [[0.0f64; 4]; 5];
@@ -434,4 +520,95 @@ fn solve3(m: &[f64; 6], b: &[f64; 3]) -> Option<[f64; 3]> {
             + c[0][2] * (c[1][0] * c[2][1] - c[1][1] * c[2][0])
     };
     Some([col(0) / det, col(1) / det, col(2) / det])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image::{dot3, normalize, ImageStack};
+    use crate::lut::table::BuildOptions;
+    use crate::sphere::Circle;
+
+    /// Light `i` of `k` (30–60° from the view axis, spread in azimuth).
+    fn light(i: usize) -> [f32; 3] {
+        let a = i as f32 * 2.4;
+        normalize([0.6 * a.cos(), 0.6 * a.sin(), 0.8 - 0.04 * i as f32])
+    }
+
+    /// A Lambertian sphere of radius 40 px under `k` lights, albedo 0.7.
+    fn table(k: usize) -> Table {
+        let size = 90;
+        let circle = Circle {
+            cx: 45.3,
+            cy: 44.8,
+            radius: 40.0,
+        };
+        let mut stack = ImageStack::zeros(size, size, k);
+        for r in 0..size {
+            for c in 0..size {
+                let Some(n) = circle.normal_at(r, c, 0.0) else {
+                    continue;
+                };
+                for (i, v) in stack.pixel_flat_mut(r * size + c).iter_mut().enumerate() {
+                    *v = 0.7 * dot3(n, light(i)).max(0.0);
+                }
+            }
+        }
+        let opts = BuildOptions {
+            smooth: Some(0.0),
+            ..BuildOptions::default()
+        };
+        Table::build(&stack, &circle, &opts).unwrap()
+    }
+
+    #[test]
+    fn rim_fit_recovers_grazing_normals_on_every_build() {
+        // K = 12 needs padding, K = 16 does not; the model is exact for a Lambertian sphere
+        let mut worst = [0.0f64; 2];
+        for k in [12, 16] {
+            let t0 = table(k);
+            let mut rim = Rim::fit(&t0).unwrap();
+            let mut b = RimBuf::new(k);
+            for scale in [false, true] {
+                for (deg, phi) in [(80.0f64, 0.3f64), (84.0, 2.0), (87.0, -1.2), (89.5, 4.0)] {
+                    let theta = deg.to_radians();
+                    let n = normal(theta, phi).map(|v| v as f32);
+                    let albedo = if scale { 0.6 } else { 1.0 };
+                    let t: Vec<f32> = (0..k)
+                        .map(|i| albedo * 0.7 * dot3(n, light(i)).max(0.0))
+                        .collect();
+                    let w = vec![1.0; k];
+                    // the table fit ends at the table's edge, at the right azimuth
+                    let e = rim.theta_clean.sin() as f32;
+                    let n0 = [
+                        e * n[0] / n[0].hypot(n[1]),
+                        e * n[1] / n[0].hypot(n[1]),
+                        0.0,
+                    ];
+                    let mut fits = vec![];
+                    for avx in [false, avx_available()] {
+                        rim.avx = avx;
+                        fits.push(rim.solve(&t, &w, n0, scale, &mut b));
+                    }
+                    // no fused multiply-add: the AVX build gives the same fit
+                    assert_eq!(fits[0], fits[1], "k {k} scale {scale} at {deg}°");
+                    let (th, ph, c, _) = fits[0];
+                    let m = normal(th, ph);
+                    let cos = (m[0] * n[0] as f64 + m[1] * n[1] as f64 + m[2] * n[2] as f64)
+                        .clamp(-1.0, 1.0);
+                    let err = cos.acos().to_degrees();
+                    worst[scale as usize] = worst[scale as usize].max(err);
+                    assert!((c - albedo).abs() < 0.01, "k {k} at {deg}°: scale {c}");
+                }
+            }
+        }
+        println!(
+            "rim fit, worst error at 80–89.5°: {:.4}° (scale 1), {:.4}° (scale fitted)",
+            worst[0], worst[1]
+        );
+        // measured 0.0081° with the scale fixed; 0.23° with the scale fitted, where the 8
+        // Gauss–Newton iterations stop short along the θ–scale valley (0.009° with 80)
+        assert!(worst[0] < 0.02, "worst error {}° (scale 1)", worst[0]);
+        assert!(worst[1] < 0.5, "worst error {}° (scale fitted)", worst[1]);
+    }
 }
