@@ -55,8 +55,6 @@ struct Bound<R, C> {
     id: u32,
     /// Squared projected search radius, `reach(best)`.
     r2: f32,
-    /// Leaves still allowed.
-    leaves: usize,
     reach: R,
     cost: C,
 }
@@ -250,8 +248,10 @@ impl Index {
     /// is the caller's cost of entry `id`, and `reach(b)` the squared projected distance
     /// from `q` beyond which no entry can cost less than b (from the caller's lower bound
     /// of the cost by the projected distance). Returns the best entry found as (cost, id),
-    /// id `u32::MAX` when none costs less than `best`, or `None` when the search would
-    /// visit more than `budget` leaves (then nothing is known).
+    /// id `u32::MAX` when none costs less than `best`, or `None` when the ball of radius
+    /// reach(`best`) around `q` meets more than `budget` leaves (then nothing is known).
+    /// Those leaves are counted first, without a cost (the search visits at most them,
+    /// since its radius only shrinks): a search over its budget costs no entry at all.
     pub fn least(
         &self,
         q: &[f32],
@@ -261,33 +261,48 @@ impl Index {
         budget: usize,
     ) -> Option<(f32, u32)> {
         let q = &padded(q);
+        let r2 = reach(best);
+        if !self.nodes.is_empty() && self.leaves_within(0, q, r2, budget).is_none() {
+            return None;
+        }
         let mut b = Bound {
             best,
             id: u32::MAX,
-            r2: reach(best),
-            leaves: budget,
+            r2,
             reach,
             cost,
         };
-        if self.nodes.is_empty() || self.search_least(0, q, &mut b) {
-            Some((b.best, b.id))
-        } else {
-            None
+        if !self.nodes.is_empty() {
+            self.search_least(0, q, &mut b);
+        }
+        Some((b.best, b.id))
+    }
+
+    /// Leaves below `node` that the depth-first search of a ball of squared radius `r2`
+    /// around `q` visits, `None` when more than `budget`; the remaining budget otherwise.
+    fn leaves_within(&self, node: usize, q: &[f32; PAD], r2: f32, budget: usize) -> Option<usize> {
+        match self.nodes[node] {
+            Node::Leaf { .. } => budget.checked_sub(1),
+            Node::Split { dim, value, right } => {
+                let (near, far, plane2) = Self::sides(node, dim, value, right, q);
+                let left = self.leaves_within(near, q, r2, budget)?;
+                if plane2 < r2 {
+                    self.leaves_within(far, q, r2, left)
+                } else {
+                    Some(left)
+                }
+            }
         }
     }
 
-    /// [`Index::least`] below `node`; false when the budget ran out.
-    fn search_least<R, C>(&self, node: usize, q: &[f32; PAD], b: &mut Bound<R, C>) -> bool
+    /// [`Index::least`] below `node`.
+    fn search_least<R, C>(&self, node: usize, q: &[f32; PAD], b: &mut Bound<R, C>)
     where
         R: Fn(f32) -> f32,
         C: FnMut(u32) -> f32,
     {
         match self.nodes[node] {
             Node::Leaf { start, end } => {
-                if b.leaves == 0 {
-                    return false;
-                }
-                b.leaves -= 1;
                 for pos in start as usize..end as usize {
                     if self.dist_at(pos, q) < b.r2 {
                         let id = self.ids[pos];
@@ -297,11 +312,13 @@ impl Index {
                         }
                     }
                 }
-                true
             }
             Node::Split { dim, value, right } => {
                 let (near, far, plane2) = Self::sides(node, dim, value, right, q);
-                self.search_least(near, q, b) && (plane2 >= b.r2 || self.search_least(far, q, b))
+                self.search_least(near, q, b);
+                if plane2 < b.r2 {
+                    self.search_least(far, q, b);
+                }
             }
         }
     }

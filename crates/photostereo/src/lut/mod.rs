@@ -30,8 +30,9 @@
 //!    certificate, a branch and bound over the tree with that lower bound looks for any
 //!    entry that costs less than f (search radius from f's cost, so it visits a few
 //!    leaves): f is kept when there is none. When it finds one, the refinement from the
-//!    best such entry runs and the better fit is kept; when it would visit more than 48
-//!    leaves, the pixel goes through the plain tree search: its candidates are re-ranked, f is
+//!    best such entry runs and the better fit is kept; when its initial search ball meets
+//!    more than 48 leaves of the tree (counted first, without a cost), the pixel goes
+//!    through the plain tree search: its candidates are re-ranked, f is
 //!    kept only when it fits at least as well as the best candidate and that candidate
 //!    lies within 1.5 px of it, otherwise Gauss–Newton from the best candidate runs and
 //!    the better fit is kept. So, whatever its neighbours did, no table entry farther

@@ -121,11 +121,18 @@ pub(crate) struct Work {
     norm: f32,
     /// `q` holds the current pixel's projected query.
     projected: bool,
+    /// `s.seeds` holds the current pixel's tree candidates (the `candidates` entries
+    /// nearest to its query: the same whichever search found them).
+    candidates: bool,
     /// The fast path's buffer holds the current fit's tuple.
     fresh: bool,
     /// The last fast refinement's result position and its final step not taken
     /// (`single::Point::step`): the warm start extrapolates from position + step.
     settled: (f64, f64, [f64; 2]),
+    /// The window pixel of the certificate's corner of the last fast refinement's result
+    /// and the squared distance of the current pixel's tuple to it (`single::Point`);
+    /// `u32::MAX` when there is none for this pixel.
+    corner: (u32, f32),
 }
 
 impl Work {
@@ -141,8 +148,10 @@ impl Work {
             rim: RimBuf::new(k),
             norm: 0.0,
             projected: false,
+            candidates: false,
             fresh: false,
             settled: (f64::NAN, f64::NAN, [0.0; 2]),
+            corner: (u32::MAX, f32::INFINITY),
         }
     }
 }
@@ -243,6 +252,8 @@ impl<'a> Solver<'a> {
         wk.norm = norm2(&wk.t).sqrt();
         wk.fresh = false;
         wk.projected = false;
+        wk.corner.0 = u32::MAX;
+        wk.candidates = false;
         if let (Some(index), Method::InverseDistance { neighbours }) =
             (&self.index, self.opts.method)
         {
@@ -507,7 +518,7 @@ impl<'a> Solver<'a> {
             let w = weighted.then_some(&wk.w[..k]);
             return self.model.refine(&wk.t[..k], w, start, iters, &mut wk.s);
         };
-        let weights = if weighted { &wk.w[..] } else { &self.ones[..] };
+        let weights = weighted.then_some(&wk.w[..]);
         let (p, fresh) = single.refine(&wk.t, weights, start.gx, start.gy, iters, &mut wk.b);
         if p.cost > start.cost {
             wk.fresh = false;
@@ -515,6 +526,7 @@ impl<'a> Solver<'a> {
         }
         wk.fresh = fresh;
         wk.settled = (p.gx, p.gy, p.step);
+        wk.corner = (p.corner, p.corner_d2);
         p.fit()
     }
 
@@ -528,8 +540,12 @@ impl<'a> Solver<'a> {
     /// re-ranked on the full K-dimensional cost with the weights in `wk.w` (`weighted`)
     /// or all lights; the best one as a fit. The search is seeded with the previous pixel's
     /// candidates, or with the entries around `near` when checking a fit (seeds only
-    /// speed the search up: the candidates are the same).
+    /// speed the search up: the candidates are the same); it is not run again when this
+    /// pixel's candidates are known already (the masked shortcut's check found them).
     fn tree_match(&self, index: &Index, near: Option<&Fit>, weighted: bool, wk: &mut Work) -> Fit {
+        if wk.candidates {
+            return self.best_of_seeds(weighted, wk);
+        }
         self.query(index, wk);
         if let Some(f) = near {
             wk.s.seeds.clear();
@@ -547,6 +563,7 @@ impl<'a> Solver<'a> {
         let cands = index.nearest(&wk.q[..index.dims()], self.opts.candidates, &wk.s.seeds);
         wk.s.seeds.clear();
         wk.s.seeds.extend_from_slice(&cands.ids[..cands.len]);
+        wk.candidates = true;
         self.best_of_seeds(weighted, wk)
     }
 
