@@ -39,41 +39,85 @@ const DARK: f32 = 0.01;
 const ITERATIONS: usize = 8;
 /// Steps of the scan of θ that starts a rim fit.
 const SCAN: usize = 12;
+/// Gauss–Newton stops when its step (θ, φ, radians) is shorter than this.
+const STOP: f64 = 1e-5;
+/// Width of the per-light loops (the tuples are padded with zeros to a multiple of it).
+const LANES: usize = 8;
 
 /// The fitted extension of one table (see the module docs).
 pub(crate) struct Rim {
     k: usize,
+    /// K padded to a multiple of [`LANES`].
+    kp: usize,
     sectors: usize,
-    /// β of each sector by component and light, `beta[(s * 3 + j) * k + light]` (one
-    /// contiguous run of K values per component, so that the per-light loops vectorise).
+    /// β of each sector by component and light, `beta[(s * 3 + j) * kp + light]` (one
+    /// contiguous run per component, zeros beyond K, so that the per-light loops
+    /// vectorise).
     beta: Vec<f32>,
     /// Polar angle of the table's last clean ring (radians).
     pub theta_clean: f64,
     /// The scan's values of θ with their sine and cosine (the same for every pixel).
     scan: Vec<(f64, f64, f64)>,
+    /// The processor has AVX: the fit runs on 8-lane vectors (same arithmetic).
+    avx: bool,
 }
 
-/// Workspace of one rim fit.
+/// Workspace of one rim fit (every vector padded with zeros to `kp` values).
 pub(crate) struct RimBuf {
+    /// The target and its weights.
+    t: Vec<f32>,
+    w: Vec<f32>,
+    /// The model's tuple at the current point, and its derivatives in θ and φ.
     p: Vec<f32>,
     px: Vec<f32>,
     py: Vec<f32>,
     /// β interpolated at the current azimuth and its derivative in φ, by component
-    /// (`[j * k + light]`).
+    /// (`[j * kp + light]`).
     beta: Vec<f32>,
     dbeta: Vec<f32>,
+    /// sin θ, cos θ, sin φ, cos φ at the current point.
+    trig: [f64; 4],
+    /// β_x cos φ + β_y sin φ at the scan's azimuth.
+    a: Vec<f32>,
 }
 
 impl RimBuf {
     pub fn new(k: usize) -> Self {
+        let kp = padded(k);
         RimBuf {
-            p: vec![0.0; k],
-            px: vec![0.0; k],
-            py: vec![0.0; k],
-            beta: vec![0.0; 3 * k],
-            dbeta: vec![0.0; 3 * k],
+            t: vec![0.0; kp],
+            w: vec![0.0; kp],
+            p: vec![0.0; kp],
+            px: vec![0.0; kp],
+            py: vec![0.0; kp],
+            beta: vec![0.0; 3 * kp],
+            dbeta: vec![0.0; 3 * kp],
+            trig: [0.0; 4],
+            a: vec![0.0; kp],
         }
     }
+}
+
+/// Whether the processor has AVX (checked once per [`Rim`]).
+fn avx_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// K rounded up to a multiple of [`LANES`].
+fn padded(k: usize) -> usize {
+    k.div_ceil(LANES) * LANES
+}
+
+/// Sum of the lanes of a partial sum (pairwise).
+fn lanes_sum(a: [f32; LANES]) -> f32 {
+    ((a[0] + a[4]) + (a[2] + a[6])) + ((a[1] + a[5]) + (a[3] + a[7]))
 }
 
 /// Unit normal at polar angle θ and azimuth φ (x right, y up, z to the camera).
@@ -132,14 +176,15 @@ impl Rim {
                 }
             }
         }
-        let mut beta = vec![0.0f32; sectors * 3 * k];
+        let kp = padded(k);
+        let mut beta = vec![0.0f32; sectors * 3 * kp];
         for (i, (m, b, count)) in acc.iter().enumerate() {
             if *count < MIN_SAMPLES {
                 continue;
             }
             let (s, light) = (i / k, i % k);
             if let Some(x) = solve3(m, b) {
-                (0..3).for_each(|j| beta[(s * 3 + j) * k + light] = x[j] as f32);
+                (0..3).for_each(|j| beta[(s * 3 + j) * kp + light] = x[j] as f32);
             }
         }
         let hi = std::f64::consts::FRAC_PI_2;
@@ -151,10 +196,12 @@ impl Rim {
             .collect();
         (theta_lo > 0.0).then_some(Rim {
             k,
+            kp,
             sectors,
             beta,
             theta_clean,
             scan,
+            avx: avx_available(),
         })
     }
 
@@ -162,40 +209,47 @@ impl Rim {
     pub fn tuple<'b>(&self, n: [f32; 3], b: &'b mut RimBuf) -> &'b [f32] {
         let theta = (n[2] as f64).clamp(-1.0, 1.0).acos();
         let phi = (n[1] as f64).atan2(n[0] as f64);
-        self.eval(theta, phi, b, false);
-        &b.p
+        self.value(theta, phi, b);
+        &b.p[..self.k]
     }
 
-    /// The model's tuple at (θ, φ) into `b.p`, and when `grad`, its derivatives with
-    /// respect to θ and φ into `b.px`, `b.py` (0 where the model is clamped at 0).
-    fn eval(&self, theta: f64, phi: f64, b: &mut RimBuf, grad: bool) {
+    /// The model's tuple at (θ, φ) into `b.p` (β and the trigonometry kept in `b` for
+    /// [`Rim::grad`]).
+    #[inline(always)]
+    fn value(&self, theta: f64, phi: f64, b: &mut RimBuf) {
         let (st, ct) = theta.sin_cos();
         let (sp, cp) = phi.sin_cos();
+        b.trig = [st, ct, sp, cp];
+        self.interpolate(phi, b);
+        Self::at([(st * cp) as f32, (st * sp) as f32, ct as f32], b);
+    }
+
+    /// The derivatives of the tuple with respect to θ and φ at the point of the last
+    /// [`Rim::value`] into `b.px`, `b.py` (0 where the model is clamped at 0).
+    #[inline(always)]
+    fn grad(&self, b: &mut RimBuf) {
+        let [st, ct, sp, cp] = b.trig;
         let n = [(st * cp) as f32, (st * sp) as f32, ct as f32];
-        self.interpolate(phi, b, grad);
-        Self::at(n, b);
-        if grad {
-            let nt = [(ct * cp) as f32, (ct * sp) as f32, -st as f32];
-            let np = [(-st * sp) as f32, (st * cp) as f32];
-            let k = self.k;
-            let (bx, by, bz) = (&b.beta[..k], &b.beta[k..2 * k], &b.beta[2 * k..3 * k]);
-            let (dx, dy, dz) = (&b.dbeta[..k], &b.dbeta[k..2 * k], &b.dbeta[2 * k..3 * k]);
-            let (p, px, py) = (&b.p[..k], &mut b.px[..k], &mut b.py[..k]);
-            for i in 0..k {
-                let lit = p[i] > 0.0;
-                let gt = bx[i] * nt[0] + by[i] * nt[1] + bz[i] * nt[2];
-                let gp =
-                    (bx[i] * np[0] + by[i] * np[1]) + (dx[i] * n[0] + dy[i] * n[1] + dz[i] * n[2]);
-                px[i] = if lit { gt } else { 0.0 };
-                py[i] = if lit { gp } else { 0.0 };
-            }
+        let nt = [(ct * cp) as f32, (ct * sp) as f32, -st as f32];
+        let np = [(-st * sp) as f32, (st * cp) as f32];
+        let kp = self.kp;
+        let (bx, by, bz) = (&b.beta[..kp], &b.beta[kp..2 * kp], &b.beta[2 * kp..]);
+        let (dx, dy, dz) = (&b.dbeta[..kp], &b.dbeta[kp..2 * kp], &b.dbeta[2 * kp..]);
+        let (p, px, py) = (&b.p[..kp], &mut b.px[..kp], &mut b.py[..kp]);
+        for i in 0..kp {
+            let lit = p[i] > 0.0;
+            let gt = bx[i] * nt[0] + by[i] * nt[1] + bz[i] * nt[2];
+            let gp = (bx[i] * np[0] + by[i] * np[1]) + (dx[i] * n[0] + dy[i] * n[1] + dz[i] * n[2]);
+            px[i] = if lit { gt } else { 0.0 };
+            py[i] = if lit { gp } else { 0.0 };
         }
     }
 
     /// β interpolated linearly between the sector centres at azimuth φ into `b.beta`,
-    /// and when `grad` its derivative in φ into `b.dbeta`.
-    fn interpolate(&self, phi: f64, b: &mut RimBuf, grad: bool) {
-        let k3 = 3 * self.k;
+    /// and its derivative in φ into `b.dbeta`.
+    #[inline(always)]
+    fn interpolate(&self, phi: f64, b: &mut RimBuf) {
+        let k3 = 3 * self.kp;
         let width = std::f64::consts::TAU / self.sectors as f64;
         let u = phi.rem_euclid(std::f64::consts::TAU) / width;
         // u ≥ 0: the truncation is the floor
@@ -203,39 +257,48 @@ impl Rim {
         let s0 = whole % self.sectors;
         let s1 = (s0 + 1) % self.sectors;
         let f = (u - whole as f64) as f32;
+        let inv_width = (1.0 / width) as f32;
         let (b0, b1) = (
             &self.beta[s0 * k3..(s0 + 1) * k3],
             &self.beta[s1 * k3..(s1 + 1) * k3],
         );
-        for ((o, &a), &c) in b.beta[..k3].iter_mut().zip(b0).zip(b1) {
-            *o = (1.0 - f) * a + f * c;
-        }
-        if grad {
-            let inv_width = (1.0 / width) as f32;
-            for ((o, &a), &c) in b.dbeta[..k3].iter_mut().zip(b0).zip(b1) {
-                *o = (c - a) * inv_width;
-            }
+        let (beta, dbeta) = (&mut b.beta[..k3], &mut b.dbeta[..k3]);
+        for i in 0..k3 {
+            beta[i] = (1.0 - f) * b0[i] + f * b1[i];
+            dbeta[i] = (b1[i] - b0[i]) * inv_width;
         }
     }
 
     /// The model's tuple max(0, β·n) at unit normal `n` into `b.p`, with β the
     /// interpolated coefficients in `b.beta`.
+    #[inline(always)]
     fn at(n: [f32; 3], b: &mut RimBuf) {
-        let k = b.p.len();
-        let (bx, by, bz) = (&b.beta[..k], &b.beta[k..2 * k], &b.beta[2 * k..3 * k]);
+        let kp = b.p.len();
+        let (bx, by, bz) = (&b.beta[..kp], &b.beta[kp..2 * kp], &b.beta[2 * kp..]);
         for (i, p) in b.p.iter_mut().enumerate() {
             *p = (bx[i] * n[0] + by[i] * n[1] + bz[i] * n[2]).max(0.0);
         }
     }
 
-    /// Scale (1, or fitted and ≥ 0 when `scale`) and weighted cost of `p` against `t`.
-    fn cost(t: &[f32], w: &[f32], p: &[f32], scale: bool) -> (f32, f32) {
+    /// Scale (1, or fitted and ≥ 0 when `scale`) and weighted cost of `b.p` against
+    /// `b.t` ([`LANES`] partial sums).
+    #[inline(always)]
+    fn cost(b: &RimBuf, scale: bool) -> (f32, f32) {
+        let (t, w, p) = (&b.t[..], &b.w[..], &b.p[..]);
+        let chunks = || {
+            t.chunks_exact(LANES)
+                .zip(w.chunks_exact(LANES))
+                .zip(p.chunks_exact(LANES))
+        };
         let c = if scale {
-            let (mut tp, mut pp) = (0.0f32, 0.0f32);
-            for i in 0..t.len() {
-                tp += w[i] * t[i] * p[i];
-                pp += w[i] * p[i] * p[i];
+            let (mut tp, mut pp) = ([0.0f32; LANES], [0.0f32; LANES]);
+            for ((t, w), p) in chunks() {
+                for j in 0..LANES {
+                    tp[j] += w[j] * t[j] * p[j];
+                    pp[j] += w[j] * p[j] * p[j];
+                }
             }
+            let (tp, pp) = (lanes_sum(tp), lanes_sum(pp));
             if pp > 0.0 {
                 (tp / pp).max(0.0)
             } else {
@@ -244,13 +307,18 @@ impl Rim {
         } else {
             1.0
         };
-        let cost = (0..t.len()).map(|i| w[i] * (t[i] - c * p[i]).powi(2)).sum();
-        (c, cost)
+        let mut acc = [0.0f32; LANES];
+        for ((t, w), p) in chunks() {
+            for j in 0..LANES {
+                acc[j] += w[j] * (t[j] - c * p[j]).powi(2);
+            }
+        }
+        (c, lanes_sum(acc))
     }
 
-    /// Fit (θ, φ) to the target `t` with weights `w` from the table fit's normal `n0`: a
-    /// scan of θ at the table fit's azimuth, then Gauss–Newton from the best point;
-    /// returns (θ, φ, scale, cost).
+    /// Fit (θ, φ) to the target `t` with weights `w` (K values each) from the table
+    /// fit's normal `n0`: a scan of θ at the table fit's azimuth, then Gauss–Newton from
+    /// the best point; returns (θ, φ, scale, cost).
     pub fn solve(
         &self,
         t: &[f32],
@@ -259,63 +327,114 @@ impl Rim {
         scale: bool,
         b: &mut RimBuf,
     ) -> (f64, f64, f32, f32) {
-        let lo = self.theta_clean - RING;
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is set only where the processor reports AVX (`Rim::fit`)
+            return unsafe { self.solve_avx(t, w, n0, scale, b) };
+        }
+        self.solve_any(t, w, n0, scale, b)
+    }
+
+    /// [`Rim::solve`] compiled with AVX (8-lane loops; no fused multiply-add, so the
+    /// same results as the generic build). Safety: call only where the processor has AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn solve_avx(
+        &self,
+        t: &[f32],
+        w: &[f32],
+        n0: [f32; 3],
+        scale: bool,
+        b: &mut RimBuf,
+    ) -> (f64, f64, f32, f32) {
+        self.solve_any(t, w, n0, scale, b)
+    }
+
+    /// [`Rim::solve`] for any instruction set (inlined into each build).
+    #[inline(always)]
+    fn solve_any(
+        &self,
+        t: &[f32],
+        w: &[f32],
+        n0: [f32; 3],
+        scale: bool,
+        b: &mut RimBuf,
+    ) -> (f64, f64, f32, f32) {
+        b.t[..self.k].copy_from_slice(&t[..self.k]);
+        b.w[..self.k].copy_from_slice(&w[..self.k]);
         let phi = (n0[1] as f64).atan2(n0[0] as f64);
-        // β at this azimuth is the same for the whole scan
+        let theta = self.scan(phi, scale, b);
+        self.gauss_newton(theta, phi, scale, b)
+    }
+
+    /// The scan's θ of least cost at azimuth φ on the target in `b`. At fixed φ the
+    /// model is max(0, sin θ·a + cos θ·β_z), a = β_x cos φ + β_y sin φ.
+    #[inline(always)]
+    fn scan(&self, phi: f64, scale: bool, b: &mut RimBuf) -> f64 {
+        let kp = self.kp;
         let (sp, cp) = phi.sin_cos();
-        self.interpolate(phi, b, false);
-        let mut best = (lo, f32::INFINITY);
+        self.interpolate(phi, b);
+        let (sp, cp) = (sp as f32, cp as f32);
+        let (bx, by, bz) = (&b.beta[..kp], &b.beta[kp..2 * kp], &b.beta[2 * kp..3 * kp]);
+        for ((a, &x), &y) in b.a.iter_mut().zip(bx).zip(by) {
+            *a = x * cp + y * sp;
+        }
+        let mut best = (self.theta_clean - RING, f32::INFINITY);
         for &(theta, st, ct) in &self.scan {
-            Self::at([(st * cp) as f32, (st * sp) as f32, ct as f32], b);
-            let (_, cost) = Self::cost(t, w, &b.p, scale);
+            let (st, ct) = (st as f32, ct as f32);
+            let cost = if scale {
+                for ((p, &a), &z) in b.p.iter_mut().zip(&b.a).zip(bz) {
+                    *p = (st * a + ct * z).max(0.0);
+                }
+                Self::cost(b, true).1
+            } else {
+                let mut acc = [0.0f32; LANES];
+                let model = b.a.chunks_exact(LANES).zip(bz.chunks_exact(LANES));
+                let target = b.t.chunks_exact(LANES).zip(b.w.chunks_exact(LANES));
+                for ((a, z), (t, w)) in model.zip(target) {
+                    for j in 0..LANES {
+                        let p = (st * a[j] + ct * z[j]).max(0.0);
+                        acc[j] += w[j] * (t[j] - p).powi(2);
+                    }
+                }
+                lanes_sum(acc)
+            };
             if cost < best.1 {
                 best = (theta, cost);
             }
         }
-        self.gauss_newton(t, w, best.0, phi, scale, b)
+        best.0
     }
 
-    /// Gauss–Newton over (θ, φ) (variable projection for the scale: the Jacobian of c·I
-    /// is taken at fixed c, which is exact at a converged c), θ kept in
-    /// [θ_c − 12°, 90°], step halving.
+    /// Gauss–Newton over (θ, φ) on the target in `b` (variable projection for the
+    /// scale: the Jacobian of c·I is taken at fixed c, which is exact at a converged c),
+    /// θ kept in [θ_c − 12°, 90°], step halving; a step shorter than [`STOP`] ends it
+    /// untaken.
+    #[inline(always)]
     fn gauss_newton(
         &self,
-        t: &[f32],
-        w: &[f32],
         mut theta: f64,
         mut phi: f64,
         scale: bool,
         b: &mut RimBuf,
     ) -> (f64, f64, f32, f32) {
         let (lo, hi) = (self.theta_clean - RING, std::f64::consts::FRAC_PI_2);
-        self.eval(theta, phi, b, true);
-        let (mut c, mut cost) = Self::cost(t, w, &b.p, scale);
-        for _ in 0..ITERATIONS {
-            let (mut h11, mut h12, mut h22, mut g1, mut g2) = (0.0f64, 0.0, 0.0, 0.0, 0.0);
-            for i in 0..t.len() {
-                let jx = (c * b.px[i]) as f64;
-                let jy = (c * b.py[i]) as f64;
-                let r = (t[i] - c * b.p[i]) as f64;
-                let wi = w[i] as f64;
-                h11 += wi * jx * jx;
-                h12 += wi * jx * jy;
-                h22 += wi * jy * jy;
-                g1 += wi * jx * r;
-                g2 += wi * jy * r;
-            }
-            let damp = 1e-6 * (h11 + h22) + 1e-18;
-            let (a, d) = (h11 + damp, h22 + damp);
-            let det = a * d - h12 * h12;
-            if det.is_nan() || det <= 0.0 {
+        self.value(theta, phi, b);
+        self.grad(b);
+        let (mut c, mut cost) = Self::cost(b, scale);
+        for it in 0..ITERATIONS {
+            let Some((mut dt, mut dp)) = Self::step(b, c) else {
+                break;
+            };
+            let first = (theta + dt).clamp(lo, hi) - theta;
+            if first * first + dp * dp < STOP * STOP {
                 break;
             }
-            let mut dt = (d * g1 - h12 * g2) / det;
-            let mut dp = (a * g2 - h12 * g1) / det;
             let mut moved = false;
             for _ in 0..4 {
                 let (nt, np) = ((theta + dt).clamp(lo, hi), phi + dp);
-                self.eval(nt, np, b, true);
-                let (nc, ncost) = Self::cost(t, w, &b.p, scale);
+                self.value(nt, np, b);
+                let (nc, ncost) = Self::cost(b, scale);
                 if ncost <= cost {
                     (dt, dp) = (nt - theta, np - phi);
                     (theta, phi, c, cost) = (nt, np, nc, ncost);
@@ -325,11 +444,45 @@ impl Rim {
                 dt *= 0.5;
                 dp *= 0.5;
             }
-            if !moved || dt * dt + dp * dp < 1e-10 {
+            if !moved || dt * dt + dp * dp < STOP * STOP || it + 1 == ITERATIONS {
                 break;
             }
+            self.grad(b);
         }
         (theta, phi, c, cost)
+    }
+
+    /// The damped Gauss–Newton step (Δθ, Δφ) from the tuple and derivatives in `b` at
+    /// scale `c`; `None` when the normal equations are singular.
+    #[inline(always)]
+    fn step(b: &RimBuf, c: f32) -> Option<(f64, f64)> {
+        // four f64 partial sums of each of h11, h12, h22, g1, g2
+        let mut acc = [[0.0f64; 4]; 5];
+        let quads = b.t.chunks_exact(4).zip(b.w.chunks_exact(4));
+        let derivs =
+            b.p.chunks_exact(4)
+                .zip(b.px.chunks_exact(4).zip(b.py.chunks_exact(4)));
+        for ((t, w), (p, (px, py))) in quads.zip(derivs) {
+            for j in 0..4 {
+                let jx = (c * px[j]) as f64;
+                let jy = (c * py[j]) as f64;
+                let r = (t[j] - c * p[j]) as f64;
+                let wi = w[j] as f64;
+                acc[0][j] += wi * jx * jx;
+                acc[1][j] += wi * jx * jy;
+                acc[2][j] += wi * jy * jy;
+                acc[3][j] += wi * jx * r;
+                acc[4][j] += wi * jy * r;
+            }
+        }
+        let [h11, h12, h22, g1, g2] = acc.map(|a| (a[0] + a[2]) + (a[1] + a[3]));
+        let damp = 1e-6 * (h11 + h22) + 1e-18;
+        let (a, d) = (h11 + damp, h22 + damp);
+        let det = a * d - h12 * h12;
+        if det.is_nan() || det <= 0.0 {
+            return None;
+        }
+        Some(((d * g1 - h12 * g2) / det, (a * g2 - h12 * g1) / det))
     }
 
     /// The rim fit as a table fit: the grid point whose sphere normal is that of (θ, φ).
@@ -367,4 +520,95 @@ fn solve3(m: &[f64; 6], b: &[f64; 3]) -> Option<[f64; 3]> {
             + c[0][2] * (c[1][0] * c[2][1] - c[1][1] * c[2][0])
     };
     Some([col(0) / det, col(1) / det, col(2) / det])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image::{dot3, normalize, ImageStack};
+    use crate::lut::table::BuildOptions;
+    use crate::sphere::Circle;
+
+    /// Light `i` of `k` (30–60° from the view axis, spread in azimuth).
+    fn light(i: usize) -> [f32; 3] {
+        let a = i as f32 * 2.4;
+        normalize([0.6 * a.cos(), 0.6 * a.sin(), 0.8 - 0.04 * i as f32])
+    }
+
+    /// A Lambertian sphere of radius 40 px under `k` lights, albedo 0.7.
+    fn table(k: usize) -> Table {
+        let size = 90;
+        let circle = Circle {
+            cx: 45.3,
+            cy: 44.8,
+            radius: 40.0,
+        };
+        let mut stack = ImageStack::zeros(size, size, k);
+        for r in 0..size {
+            for c in 0..size {
+                let Some(n) = circle.normal_at(r, c, 0.0) else {
+                    continue;
+                };
+                for (i, v) in stack.pixel_flat_mut(r * size + c).iter_mut().enumerate() {
+                    *v = 0.7 * dot3(n, light(i)).max(0.0);
+                }
+            }
+        }
+        let opts = BuildOptions {
+            smooth: Some(0.0),
+            ..BuildOptions::default()
+        };
+        Table::build(&stack, &circle, &opts).unwrap()
+    }
+
+    #[test]
+    fn rim_fit_recovers_grazing_normals_on_every_build() {
+        // K = 12 needs padding, K = 16 does not; the model is exact for a Lambertian sphere
+        let mut worst = [0.0f64; 2];
+        for k in [12, 16] {
+            let t0 = table(k);
+            let mut rim = Rim::fit(&t0).unwrap();
+            let mut b = RimBuf::new(k);
+            for scale in [false, true] {
+                for (deg, phi) in [(80.0f64, 0.3f64), (84.0, 2.0), (87.0, -1.2), (89.5, 4.0)] {
+                    let theta = deg.to_radians();
+                    let n = normal(theta, phi).map(|v| v as f32);
+                    let albedo = if scale { 0.6 } else { 1.0 };
+                    let t: Vec<f32> = (0..k)
+                        .map(|i| albedo * 0.7 * dot3(n, light(i)).max(0.0))
+                        .collect();
+                    let w = vec![1.0; k];
+                    // the table fit ends at the table's edge, at the right azimuth
+                    let e = rim.theta_clean.sin() as f32;
+                    let n0 = [
+                        e * n[0] / n[0].hypot(n[1]),
+                        e * n[1] / n[0].hypot(n[1]),
+                        0.0,
+                    ];
+                    let mut fits = vec![];
+                    for avx in [false, avx_available()] {
+                        rim.avx = avx;
+                        fits.push(rim.solve(&t, &w, n0, scale, &mut b));
+                    }
+                    // no fused multiply-add: the AVX build gives the same fit
+                    assert_eq!(fits[0], fits[1], "k {k} scale {scale} at {deg}°");
+                    let (th, ph, c, _) = fits[0];
+                    let m = normal(th, ph);
+                    let cos = (m[0] * n[0] as f64 + m[1] * n[1] as f64 + m[2] * n[2] as f64)
+                        .clamp(-1.0, 1.0);
+                    let err = cos.acos().to_degrees();
+                    worst[scale as usize] = worst[scale as usize].max(err);
+                    assert!((c - albedo).abs() < 0.01, "k {k} at {deg}°: scale {c}");
+                }
+            }
+        }
+        println!(
+            "rim fit, worst error at 80–89.5°: {:.4}° (scale 1), {:.4}° (scale fitted)",
+            worst[0], worst[1]
+        );
+        // measured 0.0081° with the scale fixed; 0.23° with the scale fitted, where the 8
+        // Gauss–Newton iterations stop short along the θ–scale valley (0.009° with 80)
+        assert!(worst[0] < 0.02, "worst error {}° (scale 1)", worst[0]);
+        assert!(worst[1] < 0.5, "worst error {}° (scale fitted)", worst[1]);
+    }
 }

@@ -129,6 +129,10 @@ pub(crate) struct Work {
     /// The last fast refinement's result position and its final step not taken
     /// (`single::Point::step`): the warm start extrapolates from position + step.
     settled: (f64, f64, [f64; 2]),
+    /// The window pixel of the certificate's corner of the last fast refinement's result
+    /// and the squared distance of the current pixel's tuple to it (`single::Point`);
+    /// `u32::MAX` when there is none for this pixel.
+    corner: (u32, f32),
 }
 
 impl Work {
@@ -147,6 +151,7 @@ impl Work {
             candidates: false,
             fresh: false,
             settled: (f64::NAN, f64::NAN, [0.0; 2]),
+            corner: (u32::MAX, f32::INFINITY),
         }
     }
 }
@@ -247,6 +252,7 @@ impl<'a> Solver<'a> {
         wk.norm = norm2(&wk.t).sqrt();
         wk.fresh = false;
         wk.projected = false;
+        wk.corner.0 = u32::MAX;
         wk.candidates = false;
         if let (Some(index), Method::InverseDistance { neighbours }) =
             (&self.index, self.opts.method)
@@ -512,7 +518,7 @@ impl<'a> Solver<'a> {
             let w = weighted.then_some(&wk.w[..k]);
             return self.model.refine(&wk.t[..k], w, start, iters, &mut wk.s);
         };
-        let weights = if weighted { &wk.w[..] } else { &self.ones[..] };
+        let weights = weighted.then_some(&wk.w[..]);
         let (p, fresh) = single.refine(&wk.t, weights, start.gx, start.gy, iters, &mut wk.b);
         if p.cost > start.cost {
             wk.fresh = false;
@@ -520,6 +526,7 @@ impl<'a> Solver<'a> {
         }
         wk.fresh = fresh;
         wk.settled = (p.gx, p.gy, p.step);
+        wk.corner = (p.corner, p.corner_d2);
         p.fit()
     }
 

@@ -2,6 +2,7 @@
 //! from the entries' isolation radii, and the branch and bound over the index when it
 //! fails.
 
+use super::single::even;
 use super::{Fit, Index, Solver, Work};
 use std::sync::atomic::Ordering;
 
@@ -97,7 +98,6 @@ impl Solver<'_> {
     /// the projected space, and the projected distance d bounds the cost from below
     /// (raw matching: cost ≥ d²; normalised: cost ≥ ‖t‖²·min(1, d²/2)).
     pub(super) fn certified(&self, index: &Index, f: &Fit, wk: &mut Work) -> bool {
-        let even = |g: f64| 2 * (0.5 * g).round().max(0.0) as usize;
         let (r0, c0) = (even(f.gy), even(f.gx));
         let e0 = self.entry_at(r0, c0);
         if e0 == u32::MAX {
@@ -110,11 +110,22 @@ impl Solver<'_> {
         let rho = self.isolation_of(index, e0);
         // the projection is orthogonal, so the full K-dimensional distance bounds the
         // projected one from above: a cheaper test first (no projection of the query)
-        if self.lower_bound(wk.norm, rho - self.full_distance(wk, r0, c0)) >= f.cost {
+        if self.lower_bound(wk.norm, rho - self.corner_distance(wk, r0, c0)) >= f.cost {
             return true;
         }
         let d = index.distance(self.query(index, wk), e0).sqrt();
         self.lower_bound(wk.norm, rho - d) >= f.cost
+    }
+
+    /// [`Solver::full_distance`], taken from the refinement's evaluation when it computed
+    /// it for that window pixel and this pixel's tuple (raw matching).
+    fn corner_distance(&self, wk: &Work, r: usize, c: usize) -> f32 {
+        let w = self.model.tables[0].window.stack.width;
+        if c < w && wk.corner.0 as usize == r * w + c {
+            wk.corner.1.max(0.0).sqrt()
+        } else {
+            self.full_distance(wk, r, c)
+        }
     }
 
     /// Distance in the index's full K-dimensional space (tuples normalised when
