@@ -29,11 +29,13 @@
 //!    matching: cost ≥ d²; normalised: cost ≥ ‖t‖²·min(1, d²/2)). Without the
 //!    certificate, a branch and bound over the tree with that lower bound looks for any
 //!    entry that costs less than f (search radius from f's cost, so it visits a few
-//!    leaves): f is kept when there is none. When it finds one, the refinement from the
-//!    best such entry runs and the better fit is kept; when its initial search ball meets
-//!    more than 48 leaves of the tree (counted first, without a cost), the pixel goes
-//!    through the plain tree search: its candidates are re-ranked, f is
-//!    kept only when it fits at least as well as the best candidate and that candidate
+//!    leaves; an entry is costed only when d² plus the squared gap between its and the
+//!    query's distances from the principal subspace, a lower bound of its full squared
+//!    distance, is within the radius): f is kept when there is none. When it finds one,
+//!    the refinement from the best such entry runs and the better fit is kept; when its
+//!    initial search ball meets more than 48 leaves of the tree (counted first, without
+//!    a cost), the pixel goes through the plain tree search: its candidates are
+//!    re-ranked, f is kept only when it fits at least as well as the best candidate and that candidate
 //!    lies within 1.5 px of it, otherwise Gauss–Newton from the best candidate runs and
 //!    the better fit is kept. So, whatever its neighbours did, no table entry farther
 //!    than 4.5 px from a pixel's fit matches it better (a far basin's refinement can

@@ -172,7 +172,8 @@ impl Solver<'_> {
         let k = self.model.k;
         self.query(index, wk);
         let (norm2, normalize) = (wk.norm * wk.norm, self.opts.normalize);
-        // the squared projected radius beyond which every entry costs at least b
+        // the squared distance (full K-dimensional space of the index, normalised tuples
+        // when matching is) beyond which every entry costs at least b
         let reach = |b: f32| {
             if !normalize {
                 b
@@ -182,11 +183,13 @@ impl Solver<'_> {
                 2.0 * b / norm2
             }
         };
-        let (t, q) = (&wk.t[..k], &wk.q[..index.dims()]);
+        let (t, (q, rest)) = (&wk.t[..k], wk.q.split_at(index.dims()));
+        // the tuple that was projected (normalised by `query` when matching is)
+        let q_off = index.off_subspace(if normalize { &rest[..k] } else { t });
         let tuples = &self.model.tables[0].entries.tuples;
         let tuple = |e: u32| &tuples[e as usize * k..(e as usize + 1) * k];
         let cost = |e: u32| self.model.fit_with(t, None, tuple(e), tuple(e)).1;
-        let (_, e) = index.least(q, f.cost, reach, cost, BOUND_LEAVES)?;
+        let (_, e) = index.least(q, q_off, f.cost, reach, cost, BOUND_LEAVES)?;
         if e == u32::MAX {
             return Some(None);
         }
