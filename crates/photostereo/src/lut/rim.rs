@@ -20,9 +20,9 @@
 //!
 //! A target pixel whose table fit ends within 1 px of the table's edge is refitted on
 //! this model over (θ, φ), θ ∈ [θ_c − 12°, 90°]: a scan of 13 values of θ at the table
-//! fit's azimuth, then Gauss–Newton (analytic Jacobian) from the best, with the same
-//! lights and scale as the table fit; the rim fit replaces the table fit only when its
-//! residual is lower.
+//! fit's azimuth, then Gauss–Newton (analytic Jacobian; a step shorter than 1e-5 rad
+//! ends it, untaken) from the best, with the same lights and scale as the table fit; the
+//! rim fit replaces the table fit only when its residual is lower.
 
 use super::model::Fit;
 use super::table::Table;
