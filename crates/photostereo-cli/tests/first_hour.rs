@@ -115,6 +115,7 @@ fn bench_only_rejects_unknown_rows_and_help_lists_them() {
         "path",
         "lsq",
         "lookup",
+        "lookup-cold",
     ] {
         assert!(help.contains(row), "bench --help lacks {row}:\n{help}");
     }

@@ -104,13 +104,16 @@
 //! certificate and the rim model, which cost about 1.6× the CPU time. Of the vase's
 //! pixels ≈ 94.6% are certified, ≈ 4.5% kept by the branch and bound and ≈ 0.7% go
 //! through the tree; Gauss–Newton takes ≈ 1.6 evaluations per pixel (8 lanes with AVX,
-//! 4 with SSE2, chosen at run time; 57% of the warm fits take one), and the isolation
-//! radii of the entries that certify some pixel are searched once (seeded by a ring of
-//! entries just outside the basin) and cached. Side by side with scikit-learn's
-//! `KDTree` (nearest entry only; `benches/sklearn_lookup.py`, 2026-12-02) the lookup is
-//! ≈ 13–14× faster in wall time on the idle machine before the seeded warm start and
-//! ring, which take 1.13× less CPU (≈ 15× idle; medians 14.2× wall, 12.8× CPU at load
-//! ≈ 5): issue 10 asks for 18× (README, "Benchmarks"). The workers write the output images row by row (`planes.rs`).
+//! with fused multiply-adds where the processor has them, 4 with SSE2, chosen at run
+//! time; 57% of the warm fits take one). Everything that depends only on the tables
+//! (index, every isolation radius, rim model, coarse grid) is built once by
+//! [`Lookup::new`], as a KD-tree library builds its tree before the queries;
+//! [`solve`] builds it inside the call and computes only the isolation radii it needs.
+//! Side by side with scikit-learn's `KDTree` (nearest entry only, its tree built
+//! beforehand; `benches/sklearn_lookup.py`, idle machine, 2026-12-02 09:01, 6 runs)
+//! the prepared lookup is 19–24× faster in wall time (median 21.6×; 20.5× in CPU time)
+//! and one [`solve`] call 13–21× (median 17.1×); issue 10 asks for 18× (README,
+//! "Benchmarks"). The workers write the output images row by row (`planes.rs`).
 //!
 //! The table itself (building, file format) is in [`table`] and [`format`].
 
