@@ -262,7 +262,7 @@ pub fn solve(
 ) -> Result<Output> {
     check_tables(tables, opts)?;
     check_target(stack, mask, tables)?;
-    Lookup::prepare(tables.into(), opts)?.solve(stack, mask, progress)
+    Ok(Lookup::prepare(tables.into(), opts).run(stack, mask, progress))
 }
 
 /// A lookup prepared for one set of tables and options: the search index over the
@@ -307,14 +307,16 @@ impl<'t> Lookup<'t> {
     /// Errors: no table or more than two; K < 3; two tables under different numbers
     /// of lights; options that do not fit the tables (as [`solve`]).
     pub fn new(tables: impl Into<std::borrow::Cow<'t, [Table]>>, opts: &Options) -> Result<Self> {
-        let lookup = Self::prepare(tables.into(), opts)?;
+        let tables = tables.into();
+        check_tables(&tables, opts)?;
+        let lookup = Self::prepare(tables, opts);
         lookup.prep.fill_isolation(lookup.model(), &lookup.opts);
         Ok(lookup)
     }
 
-    /// As [`Lookup::new`], the isolation radii left to be computed when first needed.
-    fn prepare(tables: std::borrow::Cow<'t, [Table]>, opts: &Options) -> Result<Self> {
-        check_tables(&tables, opts)?;
+    /// As [`Lookup::new`] on checked tables and options, the isolation radii left to be
+    /// computed when first needed.
+    fn prepare(tables: std::borrow::Cow<'t, [Table]>, opts: &Options) -> Self {
         let derived = if opts.split_specular {
             Some(diffuse::split(&tables[0]).to_vec())
         } else if tables.len() == 2 {
@@ -328,12 +330,12 @@ impl<'t> Lookup<'t> {
         };
         let searched = derived.as_deref().unwrap_or(&tables);
         let prep = search::Prep::new(&Model::new(searched, opts.normalize), opts);
-        Ok(Lookup {
+        Lookup {
             given: tables,
             derived,
             opts: opts.clone(),
             prep,
-        })
+        }
     }
 
     /// The options the lookup was prepared with.
@@ -357,6 +359,11 @@ impl<'t> Lookup<'t> {
         progress: &dyn Progress,
     ) -> Result<Output> {
         check_target(stack, mask, &self.given)?;
+        Ok(self.run(stack, mask, progress))
+    }
+
+    /// [`Lookup::solve`] on a checked target.
+    fn run(&self, stack: &ImageStack, mask: &Mask, progress: &dyn Progress) -> Output {
         let solver = Solver::with(self.model(), &self.opts, &self.prep);
         let n_tables = self.derived.as_ref().map_or(self.given.len(), Vec::len);
         let (w, h, k) = (stack.width, stack.height, stack.k);
@@ -384,7 +391,7 @@ impl<'t> Lookup<'t> {
             })
             .reduce(Stats::default, planes::add_stats);
         progress.finish();
-        Ok(planes.into_output(stats))
+        planes.into_output(stats)
     }
 }
 
