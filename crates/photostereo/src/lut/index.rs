@@ -685,6 +685,28 @@ pub(crate) fn jacobi_eigen(mut a: Vec<f64>, k: usize) -> (Vec<f64>, Vec<f64>) {
 mod tests {
     use super::*;
 
+    /// Dimensions of [`twisted_surface`]'s points.
+    const TWISTED_K: usize = 5;
+
+    /// 40 × 40 points on a twisted 2-D surface in 5-D (flattened).
+    fn twisted_surface() -> Vec<f32> {
+        let mut pts = Vec::new();
+        for i in 0..40 {
+            for j in 0..40 {
+                let (u, v) = (i as f32 / 10.0, j as f32 / 10.0);
+                pts.extend_from_slice(&[u, v, (u * v).sin(), u * u - v, (u + 2.0 * v).cos()]);
+            }
+        }
+        pts
+    }
+
+    /// Squared distance in full K from `query` to point `e` of `pts`.
+    fn full_distance(pts: &[f32], query: &[f32], e: u32) -> f32 {
+        let k = query.len();
+        let p = &pts[e as usize * k..(e as usize + 1) * k];
+        p.iter().zip(query).map(|(a, b)| (a - b) * (a - b)).sum()
+    }
+
     #[test]
     fn jacobi_diagonalises_a_symmetric_matrix() {
         let a = vec![4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 1.0];
@@ -700,14 +722,7 @@ mod tests {
     #[test]
     fn kd_tree_returns_the_exact_nearest_points() {
         // points on a twisted 2-D surface in 5-D, queries off the surface
-        let k = 5;
-        let mut pts = Vec::new();
-        for i in 0..40 {
-            for j in 0..40 {
-                let (u, v) = (i as f32 / 10.0, j as f32 / 10.0);
-                pts.extend_from_slice(&[u, v, (u * v).sin(), u * u - v, (u + 2.0 * v).cos()]);
-            }
-        }
+        let (pts, k) = (twisted_surface(), TWISTED_K);
         let n = pts.len() / k;
         let idx = Index::build(&pts, k, &vec![true; n], 5);
         let mut q = vec![0.0; 5];
@@ -715,15 +730,8 @@ mod tests {
             let query = [t as f32 * 0.07, 3.0 - t as f32 * 0.05, 0.3, 1.0, -0.2];
             idx.project(&query, &mut q);
             let got = idx.nearest(&q, 3, &[7, 100]);
-            let mut all: Vec<(f32, u32)> = (0..n)
-                .map(|e| {
-                    let p = &pts[e * k..(e + 1) * k];
-                    (
-                        p.iter().zip(&query).map(|(a, b)| (a - b) * (a - b)).sum(),
-                        e as u32,
-                    )
-                })
-                .collect();
+            let full = |e: u32| full_distance(&pts, &query, e);
+            let mut all: Vec<(f32, u32)> = (0..n as u32).map(|e| (full(e), e)).collect();
             all.sort_by(|a, b| a.0.total_cmp(&b.0));
             assert_eq!(got.len, 3);
             // the nearest point with an odd id, against brute force
@@ -731,13 +739,6 @@ mod tests {
             let want = all.iter().find(|(_, e)| e % 2 == 1).unwrap();
             assert_eq!(id % 2, 1);
             // branch and bound on the full distance (projected distance ≤ full: exact)
-            let full = |e: u32| {
-                let p = &pts[e as usize * k..(e as usize + 1) * k];
-                p.iter()
-                    .zip(&query)
-                    .map(|(a, b)| (a - b) * (a - b))
-                    .sum::<f32>()
-            };
             let (c, e) = idx
                 .least(
                     &q,
@@ -780,23 +781,9 @@ mod tests {
         // gap between distances from the subspace must bound the full distance, and the
         // branch and bound stay exact while costing fewer entries than the projection
         // alone would let through
-        let k = 5;
-        let mut pts = Vec::new();
-        for i in 0..40 {
-            for j in 0..40 {
-                let (u, v) = (i as f32 / 10.0, j as f32 / 10.0);
-                pts.extend_from_slice(&[u, v, (u * v).sin(), u * u - v, (u + 2.0 * v).cos()]);
-            }
-        }
+        let (pts, k) = (twisted_surface(), TWISTED_K);
         let n = pts.len() / k;
         let idx = Index::build(&pts, k, &vec![true; n], 2);
-        let full = |query: &[f32], e: u32| {
-            let p = &pts[e as usize * k..(e as usize + 1) * k];
-            p.iter()
-                .zip(query)
-                .map(|(a, b)| (a - b) * (a - b))
-                .sum::<f32>()
-        };
         let (mut costed, mut within) = (0, 0);
         let mut q = vec![0.0; 2];
         for t in 0..50 {
@@ -809,7 +796,7 @@ mod tests {
                 let (off_e, tol_e) = idx.off_subspace(p);
                 let gap = ((off - off_e).abs() - tol - tol_e).max(0.0);
                 let d = idx.distance(&q, e);
-                let c = full(&query, e);
+                let c = full_distance(&pts, &query, e);
                 assert!(
                     d + gap * gap <= c * (1.0 + 1e-5) + 1e-6,
                     "{d} + {gap}² > {c}"
@@ -823,7 +810,7 @@ mod tests {
             within += (0..n as u32).filter(|&e| idx.distance(&q, e) < r2).count();
             let cost = |e: u32| {
                 costed += 1;
-                full(&query, e)
+                full_distance(&pts, &query, e)
             };
             let (c, e) = idx
                 .least(&q, (off, tol), r2, |b| b, cost, usize::MAX)

@@ -540,8 +540,8 @@ fn solve3(m: &[f64; 6], b: &[f64; 3]) -> Option<[f64; 3]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::image::{dot3, normalize, ImageStack};
-    use crate::lut::table::BuildOptions;
+    use crate::image::{dot3, normalize};
+    use crate::lut::table::test_sphere_table;
     use crate::sphere::Circle;
 
     /// Light `i` of `k` (30–60° from the view axis, spread in azimuth).
@@ -552,28 +552,12 @@ mod tests {
 
     /// A Lambertian sphere of radius 40 px under `k` lights, albedo 0.7.
     fn table(k: usize) -> Table {
-        let size = 90;
         let circle = Circle {
             cx: 45.3,
             cy: 44.8,
             radius: 40.0,
         };
-        let mut stack = ImageStack::zeros(size, size, k);
-        for r in 0..size {
-            for c in 0..size {
-                let Some(n) = circle.normal_at(r, c, 0.0) else {
-                    continue;
-                };
-                for (i, v) in stack.pixel_flat_mut(r * size + c).iter_mut().enumerate() {
-                    *v = 0.7 * dot3(n, light(i)).max(0.0);
-                }
-            }
-        }
-        let opts = BuildOptions {
-            smooth: Some(0.0),
-            ..BuildOptions::default()
-        };
-        Table::build(&stack, &circle, &opts).unwrap()
+        test_sphere_table(90, circle, k, |n, i| 0.7 * dot3(n, light(i)).max(0.0))
     }
 
     #[test]

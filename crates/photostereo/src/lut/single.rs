@@ -530,9 +530,9 @@ fn shorten(dx: f64, dy: f64, len2: f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::image::{dot3, normalize, ImageStack};
+    use crate::image::{dot3, normalize};
     use crate::lut::model::{Model, Scratch};
-    use crate::lut::table::BuildOptions;
+    use crate::lut::table::test_sphere_table;
     use crate::sphere::Circle;
 
     /// [`Single::eval`] on 8 AVX lanes. Safety: call only where the processor has AVX.
@@ -589,31 +589,17 @@ mod tests {
 
     /// A 64² sphere (radius 28 px) under `k` lights, diffuse + a Blinn–Phong lobe.
     fn table(k: usize) -> Table {
-        let size = 64;
         let circle = Circle {
             cx: 32.3,
             cy: 31.8,
             radius: 28.0,
         };
-        let mut stack = ImageStack::zeros(size, size, k);
-        for r in 0..size {
-            for c in 0..size {
-                let Some(n) = circle.normal_at(r, c, 0.0) else {
-                    continue;
-                };
-                for (i, v) in stack.pixel_flat_mut(r * size + c).iter_mut().enumerate() {
-                    let a = i as f32 * 2.4;
-                    let l = normalize([0.5 * a.cos(), 0.5 * a.sin(), 0.8]);
-                    let h = normalize([l[0], l[1], l[2] + 1.0]);
-                    *v = 0.7 * dot3(n, l).max(0.0) + 0.4 * dot3(n, h).max(0.0).powi(20);
-                }
-            }
-        }
-        let opts = BuildOptions {
-            smooth: Some(0.0),
-            ..BuildOptions::default()
-        };
-        Table::build(&stack, &circle, &opts).unwrap()
+        test_sphere_table(64, circle, k, |n, i| {
+            let a = i as f32 * 2.4;
+            let l = normalize([0.5 * a.cos(), 0.5 * a.sin(), 0.8]);
+            let h = normalize([l[0], l[1], l[2] + 1.0]);
+            0.7 * dot3(n, l).max(0.0) + 0.4 * dot3(n, h).max(0.0).powi(20)
+        })
     }
 
     #[test]

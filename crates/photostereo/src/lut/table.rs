@@ -535,3 +535,31 @@ fn median(v: &mut [f32]) -> f32 {
     let mid = v.len() / 2;
     *v.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
 }
+
+/// A table of a synthetic sphere for unit tests: `circle` in `size`² images under `k`
+/// lights, sample `shade(n, i)` for light `i` at every pixel whose centre lies on the
+/// sphere (normal `n`), no smoothing.
+#[cfg(test)]
+pub(crate) fn test_sphere_table(
+    size: usize,
+    circle: Circle,
+    k: usize,
+    shade: impl Fn([f32; 3], usize) -> f32,
+) -> Table {
+    let mut stack = ImageStack::zeros(size, size, k);
+    for r in 0..size {
+        for c in 0..size {
+            let Some(n) = circle.normal_at(r, c, 0.0) else {
+                continue;
+            };
+            for (i, v) in stack.pixel_flat_mut(r * size + c).iter_mut().enumerate() {
+                *v = shade(n, i);
+            }
+        }
+    }
+    let opts = BuildOptions {
+        smooth: Some(0.0),
+        ..BuildOptions::default()
+    };
+    Table::build(&stack, &circle, &opts).unwrap()
+}
