@@ -1,6 +1,7 @@
 //! Loading and writing whole datasets in the DiLiGenT layout (see the
 //! [module docs](super) for the files and the rules).
 
+use super::bands::{probe_images, BandReader, StackHeader};
 use super::raster::{decode_gray, read_mask_any, save_png, write_mask_png, Decoded, LUMA};
 use super::{read_text, write_text};
 use crate::error::{Error, Result};
@@ -81,18 +82,7 @@ pub fn load_dataset(dir: &Path, opts: &LoadOptions) -> Result<Dataset> {
             _ => None,
         })
         .collect();
-    let decoded: Vec<Decoded> = files
-        .par_iter()
-        .zip(scales.par_iter())
-        .map(|(f, s)| decode_gray(f, *s))
-        .collect::<Result<_>>()?;
-    check_consistent(&files, &decoded)?;
-    let first = &decoded[0].image;
-    let mask = load_mask(dir, opts, first.width, first.height)?;
-    let saturated = count_saturated(&decoded, mask.as_ref());
-    let bit_depth = decoded[0].bit_depth;
-    let images: Vec<_> = decoded.into_iter().map(|d| d.image).collect();
-    let mut stack = ImageStack::from_images(&images)?;
+    let (mut stack, mask, saturated, bit_depth) = decode_stack(dir, &files, &scales, opts)?;
     stack.names = files
         .iter()
         .map(|f| {
@@ -111,6 +101,111 @@ pub fn load_dataset(dir: &Path, opts: &LoadOptions) -> Result<Dataset> {
         dir: dir.to_path_buf(),
         bit_depth,
     })
+}
+
+/// A dataset opened for reading by row bands ([`open_dataset_bands`]): everything but
+/// the pixels of the light images, which [`DatasetBands::reader`] reads.
+#[derive(Clone, Debug)]
+pub struct DatasetBands {
+    /// The light images' headers.
+    pub header: StackHeader,
+    /// The intensity that divides each image's R, G, B (`None` = 1).
+    pub scales: Vec<Option<[f32; 3]>>,
+    /// As [`Dataset::lights`].
+    pub lights: Option<Lights>,
+    /// As [`Dataset::raw_intensities`].
+    pub raw_intensities: Option<Vec<[f32; 3]>>,
+    /// As [`Dataset::mask`].
+    pub mask: Option<Mask>,
+    /// The dataset directory.
+    pub dir: PathBuf,
+}
+
+/// Open a dataset directory (DiLiGenT layout) for reading by row bands: the image
+/// headers, the text files and the mask are read and checked as [`load_dataset`] checks
+/// them; the light images' pixels are left for [`DatasetBands::reader`].
+pub fn open_dataset_bands(dir: &Path, opts: &LoadOptions) -> Result<DatasetBands> {
+    if !dir.is_dir() {
+        return Err(Error::NotFound {
+            path: dir.to_path_buf(),
+            fix: "give the directory that holds the light images".into(),
+        });
+    }
+    let files = list_images(dir)?;
+    let k = files.len();
+    let (lights, raw_intensities) = read_light_files(dir, k, opts)?;
+    let header = probe_images(&files)?;
+    let mask = load_mask(dir, opts, header.width, header.height)?;
+    let scales: Vec<Option<[f32; 3]>> = (0..k)
+        .map(|i| match &raw_intensities {
+            Some(v) if opts.apply_intensities => Some(v[i]),
+            _ => None,
+        })
+        .collect();
+    Ok(DatasetBands {
+        header,
+        scales,
+        lights,
+        raw_intensities,
+        mask,
+        dir: dir.to_path_buf(),
+    })
+}
+
+impl DatasetBands {
+    /// A reader of the light images' rows from the top (already divided by the light
+    /// intensities when [`LoadOptions::apply_intensities`]); each pass over the images
+    /// opens one.
+    pub fn reader(&self) -> Result<BandReader> {
+        BandReader::open(self.header.clone(), &self.scales)
+    }
+}
+
+/// A decoded stack: the stack, its mask, the saturated samples and the bit depth.
+type DecodedStack = (ImageStack, Option<Mask>, usize, u8);
+
+/// Decode `files` into one pixel-major stack. The images are decoded in parallel a few
+/// at a time; each batch is checked against the first image, interleaved into the
+/// stack and dropped at once, so the peak is the stack plus one batch of decoded images
+/// (decoding all of them before interleaving held the stack more than twice over).
+/// Errors come in the order they always did: decoding, then consistency, then the mask.
+fn decode_stack(
+    dir: &Path,
+    files: &[PathBuf],
+    scales: &[Option<[f32; 3]>],
+    opts: &LoadOptions,
+) -> Result<DecodedStack> {
+    let first = decode_gray(&files[0], scales[0])?;
+    let (w, h, k) = (first.image.width, first.image.height, files.len());
+    let bit_depth = first.bit_depth;
+    // a bad mask is reported after the images, as when the images were decoded first
+    let mask = load_mask(dir, opts, w, h);
+    let in_mask = mask.as_ref().ok().and_then(|m| m.as_ref());
+    let mut stack = ImageStack::zeros(w, h, k);
+    let mut saturated = count_saturated(&first, in_mask);
+    interleave(&mut stack, 0, &first.image);
+    let batch = rayon::current_num_threads().clamp(1, 8);
+    for start in (1..k).step_by(batch) {
+        let end = (start + batch).min(k);
+        let decoded: Vec<Decoded> = (start..end)
+            .into_par_iter()
+            .map(|i| decode_gray(&files[i], scales[i]))
+            .collect::<Result<_>>()?;
+        for (d, i) in decoded.iter().zip(start..end) {
+            check_consistent((&files[0], &first), (&files[i], d))?;
+            saturated += count_saturated(d, in_mask);
+            interleave(&mut stack, i, &d.image);
+        }
+    }
+    Ok((stack, mask?, saturated, bit_depth))
+}
+
+/// Write `image` as image `i` of the pixel-major `stack`.
+fn interleave(stack: &mut ImageStack, i: usize, image: &crate::image::GrayImage) {
+    let k = stack.k;
+    for (px, v) in stack.data.chunks_exact_mut(k).zip(&image.data) {
+        px[i] = *v;
+    }
 }
 
 /// The lights and the raw intensity triples of a dataset, each if present.
@@ -167,32 +262,30 @@ fn check_count(path: &Path, expected: usize, found: usize, fix: &str) -> Result<
     Ok(())
 }
 
-/// All images must share the size and bit depth of the first.
-fn check_consistent(files: &[PathBuf], decoded: &[Decoded]) -> Result<()> {
-    let first = &decoded[0];
-    for (f, d) in files.iter().zip(decoded).skip(1) {
-        if !d.image.same_size(&first.image) {
-            return Err(Error::SizeMismatch {
-                what: format!("{} (first image {})", f.display(), files[0].display()),
-                expected_w: first.image.width,
-                expected_h: first.image.height,
-                found_w: d.image.width,
-                found_h: d.image.height,
-                fix: "all light images must have the same size".into(),
-            });
-        }
-        if d.bit_depth != first.bit_depth {
-            return Err(Error::invalid(
-                format!(
-                    "{}: {}-bit image, but {} is {}-bit",
-                    f.display(),
-                    d.bit_depth,
-                    files[0].display(),
-                    first.bit_depth
-                ),
-                "all light images must have the same bit depth",
-            ));
-        }
+/// An image must share the size and bit depth of the first.
+fn check_consistent(first: (&PathBuf, &Decoded), this: (&PathBuf, &Decoded)) -> Result<()> {
+    let ((f0, first), (f, d)) = (first, this);
+    if !d.image.same_size(&first.image) {
+        return Err(Error::SizeMismatch {
+            what: format!("{} (first image {})", f.display(), f0.display()),
+            expected_w: first.image.width,
+            expected_h: first.image.height,
+            found_w: d.image.width,
+            found_h: d.image.height,
+            fix: "all light images must have the same size".into(),
+        });
+    }
+    if d.bit_depth != first.bit_depth {
+        return Err(Error::invalid(
+            format!(
+                "{}: {}-bit image, but {} is {}-bit",
+                f.display(),
+                d.bit_depth,
+                f0.display(),
+                first.bit_depth
+            ),
+            "all light images must have the same bit depth",
+        ));
     }
     Ok(())
 }
@@ -218,17 +311,12 @@ fn load_mask(dir: &Path, opts: &LoadOptions, w: usize, h: usize) -> Result<Optio
     Ok(Some(mask))
 }
 
-fn count_saturated(decoded: &[Decoded], mask: Option<&Mask>) -> usize {
-    decoded
+fn count_saturated(d: &Decoded, mask: Option<&Mask>) -> usize {
+    d.saturated
         .iter()
-        .map(|d| {
-            d.saturated
-                .iter()
-                .enumerate()
-                .filter(|&(i, &s)| s && mask.is_none_or(|m| m.data[i]))
-                .count()
-        })
-        .sum()
+        .enumerate()
+        .filter(|&(i, &s)| s && mask.is_none_or(|m| m.data[i]))
+        .count()
 }
 
 /// True when a file name may be a light image: a PNG/TIFF extension, and a stem

@@ -42,15 +42,17 @@
 //! destination directory, which is renamed over the destination only when all of it
 //! was written, so a failed or interrupted run never leaves a half-written file.
 
+pub mod bands;
 pub mod dataset;
 pub mod limits;
 pub mod npy;
 pub mod raster;
 pub mod run;
 
+pub use bands::{probe_images, BandReader, StackHeader};
 pub use dataset::{
-    load_dataset, read_intensities, read_lights, write_dataset, write_intensities,
-    write_light_directions, Dataset, LoadOptions,
+    load_dataset, open_dataset_bands, read_intensities, read_lights, write_dataset,
+    write_intensities, write_light_directions, Dataset, DatasetBands, LoadOptions,
 };
 pub use npy::{
     read_gray_npy, read_mask_npy, read_normals_npy, write_gray_npy, write_mask_npy, write_normals,

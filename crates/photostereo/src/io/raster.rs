@@ -37,7 +37,7 @@ pub fn read_gray_image(path: &Path, channel_scale: Option<[f32; 3]>) -> Result<(
 }
 
 /// An image reader for `path` with its format guessed and the [`limits`] set.
-fn reader(path: &Path) -> Result<ImageReader<std::io::BufReader<std::fs::File>>> {
+pub(crate) fn reader(path: &Path) -> Result<ImageReader<std::io::BufReader<std::fs::File>>> {
     let fix = "check the path; images must be PNG or TIFF files";
     let mut reader = ImageReader::open(path)
         .map_err(|e| not_found_or_io(path, e, fix))?
@@ -49,7 +49,7 @@ fn reader(path: &Path) -> Result<ImageReader<std::io::BufReader<std::fs::File>>>
 
 /// Decode an image after checking the size its header claims against the [`limits`]
 /// (the header alone is read first, so a lying header costs no allocation).
-fn open_image(path: &Path) -> Result<DynamicImage> {
+pub(crate) fn open_image(path: &Path) -> Result<DynamicImage> {
     let mut probe = reader(path)?;
     // No size limit on the probe, so that the size it reads is reported in our words.
     let mut lenient = limits::image_limits();
@@ -112,7 +112,7 @@ pub(crate) fn decode_gray(path: &Path, channel_scale: Option<[f32; 3]>) -> Resul
 }
 
 /// A sample type of a decoded image, with its full scale.
-trait Sample: Copy + PartialEq {
+pub(crate) trait Sample: Copy + PartialEq {
     const FULL: f32;
     fn value(self) -> f32;
 }
@@ -137,7 +137,7 @@ impl Sample for f32 {
 
 /// Interleaved samples (`channels` per pixel, colour first, alpha ignored) → luminance
 /// in [0, 1] and per-pixel saturation flags.
-fn convert<T: Sample>(
+pub(crate) fn convert<T: Sample>(
     raw: &[T],
     channels: usize,
     color: bool,
