@@ -48,6 +48,7 @@ pub mod interreflect;
 pub mod io;
 pub mod lambertian;
 pub mod lightcal;
+pub mod limits;
 pub mod lut;
 pub mod mesh;
 pub mod pipeline;

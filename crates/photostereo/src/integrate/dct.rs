@@ -11,7 +11,7 @@
 //! kept in cache, then rows back, in parallel and in place (see `fft2` for the passes).
 
 use super::fft2::columns_in_place;
-use super::fourier::{half_angle_terms, inverse_eigenvalue};
+use super::spectrum::{half_angle_terms, inverse_eigenvalue};
 use rayon::prelude::*;
 use realfft::num_complex::Complex;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};

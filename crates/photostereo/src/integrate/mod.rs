@@ -65,6 +65,7 @@ mod lsq;
 mod multigrid;
 mod parts;
 pub mod path;
+mod spectrum;
 mod support;
 mod trust;
 

@@ -46,12 +46,12 @@
 //!    pixel off where it is right alone).
 //! 2. **Beyond the pixel grid.** The cost ‖t − c·I(x, y)‖² is minimised over the
 //!    continuous sphere position (x, y) on the bilinear interpolation of the sphere
-//!    images by Gauss–Newton ([`model`]; with one table, by a fused pass over the K
-//!    lights per step, `single.rs`); the normal is the sphere's analytic normal at that
+//!    images by Gauss–Newton (`fit/generic.rs`; with one table, by a fused pass over the K
+//!    lights per step, `fit/fused.rs`); the normal is the sphere's analytic normal at that
 //!    point: n = ((x − cx)/R, −(y − cy)/R, √(1 − n_x² − n_y²)).
 //!    **Past the table's edge** (θ beyond asin((R − rim)/R)), the fit continues on a
 //!    smooth model of each light's reflectance over the normal sphere fitted to the
-//!    outer rings (`rim.rs`), up to 90°; the rim band itself (pixels mixed with the
+//!    outer rings (`fit/rim.rs`), up to 90°; the rim band itself (pixels mixed with the
 //!    background) is left out of the table.
 //! 3. **Albedo.** With `normalize`, c = ⟨t, I⟩/⟨I, I⟩ is fitted (equivalent to matching
 //!    t/‖t‖ against I/‖I‖); c, the albedo of the target relative to the sphere, is
@@ -75,7 +75,7 @@
 //! the whole tuple, but only the diffuse part of a plastic scales with its albedo. The
 //! table is split into its Lambertian part D (a robust fit of max(0, n·g_k) per light)
 //! and the remainder S (highlight), and each pixel is fitted as t ≈ a·D(n) + b·S(n), the
-//! two-material mixture below with one sphere (`diffuse.rs`; both parts are extended
+//! two-material mixture below with one sphere (`fit/split.rs`; both parts are extended
 //! past the table's edge to 90° with the rim model, so grazing normals are fitted).
 //!
 //! **Several materials** (Hertzmann & Seitz): with two tables the model is
@@ -90,7 +90,7 @@
 //! tables at 1.6–6× the single table's CPU time on 256² renders (22–55× with the
 //! exhaustive search at every pixel).
 //! (a, b) are returned in [`Output::weights`]. Both tables are extended past their
-//! last clean ring to about 89° with their rim models (`diffuse::extend`), so grazing
+//! last clean ring to about 89° with their rim models (`fit/split.rs`), so grazing
 //! normals are fitted, not clamped to a table's edge. A light counts as cast-shadowed below
 //! `shadow_level` × the pixel's brightest predicted sample. The weights' standard error
 //! σ_w = max(σ_a, σ_b) from the Gauss–Newton covariance σ²(JᵀJ)⁻¹ of (gx, gy, a, b),
@@ -113,136 +113,31 @@
 //! beforehand; `benches/sklearn_lookup.py`, idle machine, 2026-12-02 09:01, 6 runs)
 //! the prepared lookup is 19–24× faster in wall time (median 21.6×; 20.5× in CPU time)
 //! and one [`solve`] call 13–21× (median 17.1×); issue 10 asks for 18× (README,
-//! "Benchmarks"). The workers write the output images row by row (`planes.rs`).
+//! "Benchmarks"). The workers write the output images row by row (`output.rs`).
 //!
 //! The table itself (building, file format) is in [`table`] and [`format`].
 
-pub mod denoise;
-mod diffuse;
-pub mod format;
-pub mod index;
-mod model;
-mod planes;
-mod rim;
+mod fit;
+mod options;
+mod output;
 mod search;
-mod single;
 pub mod table;
 
-pub use denoise::Denoise;
+pub use options::{Method, Options};
+pub use output::{Output, Stats};
+pub use search::index;
+pub use table::denoise::{self, Denoise};
+pub use table::format;
 pub use table::{BuildOptions, Entries, Table, Window};
 
 use crate::error::{Error, Result};
-use crate::image::{GrayImage, Image, ImageStack, Mask, NormalMap};
+use crate::image::{ImageStack, Mask};
 use crate::progress::Progress;
-use model::Model;
-use planes::Planes;
+use fit::generic::Model;
+use fit::split;
+use output::Planes;
 use rayon::prelude::*;
 use search::{Solver, Work};
-
-/// How a target tuple is turned into a normal.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    /// Tree candidates re-ranked in full K, then n = argmin over the continuous sphere
-    /// position of ‖t − c·I(x, y)‖² (bilinear I, Gauss–Newton), with cast-shadow
-    /// handling (see the module docs).
-    Refined,
-    /// The normal of the single best table entry (re-ranked tree candidates): accuracy
-    /// limited by the sphere's pixel spacing. No shadow handling.
-    Nearest,
-    /// Baseline: the `neighbours` nearest entries in full K (exact KD-tree search),
-    /// n ∝ Σ n_j / d_j with d_j the Euclidean tuple distance. No shadow handling.
-    InverseDistance {
-        /// Number of neighbours averaged (6 in the classic baseline).
-        neighbours: usize,
-    },
-}
-
-/// Options of [`solve`].
-#[derive(Clone, Debug)]
-pub struct Options {
-    /// How tuples become normals. Default [`Method::Refined`].
-    pub method: Method,
-    /// Match brightness-normalised tuples (targets whose albedo differs from the
-    /// sphere's); the albedo ratio is returned. Default false.
-    pub normalize: bool,
-    /// Dark level as a fraction of the match's brightness (c × the table's brightest
-    /// sample): target samples below it count as unlit / shadowed. Default 0.03.
-    pub shadow_level: f32,
-    /// Fewer lit lights than this gives a confidence ≤ 0.25. Default 3.
-    pub min_lit_lights: usize,
-    /// Tree candidates re-ranked in full K (1..=16). Default 4.
-    pub candidates: usize,
-    /// Principal components the tree searches in (1..=8). Default 6.
-    pub pca_dims: usize,
-    /// Gauss–Newton iterations of the sub-pixel refinement. Default 8.
-    pub max_iterations: usize,
-    /// Relative RMS residual at which the confidence drops to 1/2. Default 0.05.
-    pub residual_scale: f32,
-    /// Two tables: standard error of the mixture weights at which the confidence is
-    /// halved again (weights are fractions of each reference's brightness). Default 0.025.
-    pub weight_scale: f32,
-    /// One table, for targets whose albedo varies on a shiny material: split the table
-    /// into its Lambertian part D and the remainder S (highlight) and fit
-    /// t ≈ a·D(n) + b·S(n), a, b ≥ 0 (`diffuse.rs`; the two-material mixture with one
-    /// sphere). a, the diffuse albedo relative to the sphere's, is returned in
-    /// [`Output::albedo`], (a, b) in [`Output::weights`]. About 3–4× the CPU time of
-    /// `normalize` (the mixture's search, `search/mixture.rs`). Default false.
-    pub split_specular: bool,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            method: Method::Refined,
-            normalize: false,
-            shadow_level: 0.03,
-            min_lit_lights: 3,
-            candidates: 4,
-            pca_dims: 6,
-            max_iterations: 8,
-            residual_scale: 0.05,
-            weight_scale: 0.025,
-            split_specular: false,
-        }
-    }
-}
-
-/// Result of [`solve`]; every image has the target's size, zeros outside the mask.
-#[derive(Clone, Debug)]
-pub struct Output {
-    /// Unit normals inside the mask, [0, 0, 0] outside.
-    pub normals: NormalMap,
-    /// Confidence in [0, 1] (see the module docs); 0 outside the mask.
-    pub confidence: GrayImage,
-    /// RMS match residual per light used, in intensity units.
-    pub residual: GrayImage,
-    /// Albedo of the target relative to the sphere (normalised matching only).
-    pub albedo: Option<GrayImage>,
-    /// Mixture weights (a, b), one image per table (two tables only).
-    pub weights: Option<Vec<GrayImage>>,
-    /// Standard error of the mixture weights, max(σ_a, σ_b) (two tables only; see the
-    /// module docs).
-    pub weight_sigma: Option<GrayImage>,
-    /// Number of lights dropped as cast-shadowed at each pixel.
-    pub shadowed_lights: Image<u16>,
-    /// Number of lights above the dark level at each pixel.
-    pub lit_lights: Image<u16>,
-    /// Summary figures.
-    pub stats: Stats,
-}
-
-/// Summary of a [`solve`] run.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Stats {
-    /// Pixels solved (inside the mask).
-    pub pixels: usize,
-    /// Pixels with at least one light dropped as cast-shadowed.
-    pub shadowed_pixels: usize,
-    /// Pixels with confidence below 0.5.
-    pub low_confidence_pixels: usize,
-    /// Mean RMS residual over the mask.
-    pub mean_residual: f64,
-}
 
 /// Estimate the normals of the `mask` pixels of `stack` from one table (or two for a
 /// mixture of materials).
@@ -318,13 +213,10 @@ impl<'t> Lookup<'t> {
     /// computed when first needed.
     fn prepare(tables: std::borrow::Cow<'t, [Table]>, opts: &Options) -> Self {
         let derived = if opts.split_specular {
-            Some(diffuse::split(&tables[0]).to_vec())
+            Some(split::split(&tables[0]).to_vec())
         } else if tables.len() == 2 {
             // the mixture reaches 90° on both tables' rim models
-            Some(vec![
-                diffuse::extend(&tables[0]),
-                diffuse::extend(&tables[1]),
-            ])
+            Some(vec![split::extend(&tables[0]), split::extend(&tables[1])])
         } else {
             None
         };
@@ -378,7 +270,7 @@ impl<'t> Lookup<'t> {
                 let mut wk = Work::new(k);
                 for c in 0..w {
                     if !*mask.get(r, c) {
-                        wk.s.warm = None;
+                        wk.warm = None;
                         continue;
                     }
                     for (dst, &v) in wk.t.iter_mut().zip(stack.pixel(r, c)) {
@@ -389,7 +281,7 @@ impl<'t> Lookup<'t> {
                 progress.advance(1);
                 row.stats
             })
-            .reduce(Stats::default, planes::add_stats);
+            .reduce(Stats::default, output::add_stats);
         progress.finish();
         planes.into_output(stats)
     }

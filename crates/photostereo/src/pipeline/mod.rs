@@ -37,6 +37,7 @@ mod load;
 mod outputs;
 mod spatial_stage;
 mod stages;
+mod timer;
 
 use crate::error::{Error, Result};
 use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
@@ -226,7 +227,7 @@ pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Outpu
     }
     let has_truth = job.truth.normals.is_some() || job.truth.depth.is_some();
     let total = stages::planned(&job.normals, opts.interreflections) + usize::from(has_truth);
-    let mut st = stages::Stages::new(total, progress);
+    let mut st = timer::Stages::new(total, progress);
     let method = opts
         .method
         .unwrap_or_else(|| integrate::choose_method(&job.mask));

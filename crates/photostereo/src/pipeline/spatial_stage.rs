@@ -5,7 +5,7 @@
 //! their neighbours (their confidence is multiplied by the share of their own data,
 //! `own_share`). Without it only the standard errors are computed.
 
-use super::stages::Stages;
+use super::timer::Stages;
 use super::{Estimate, Job, Options};
 use crate::error::Result;
 use crate::image::{GrayImage, Lights, Mask};

@@ -1,42 +1,12 @@
-//! The stages of [`super::solve`], each a small function, and the timer that runs them.
+//! The stages of [`super::solve`], each a small function (the timer that runs them is
+//! in `timer.rs`).
 
-use std::time::Instant;
-
+use super::timer::Stages;
 use super::{spatial_stage, Accuracy, Estimate, Interreflections, Job, Normals, Options};
 use crate::error::Result;
 use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::Progress;
 use crate::{eval, integrate, interreflect, lambertian, lut, sphere};
-
-/// Runs named stages, reporting `stage(i, n, name, …)` to the progress and timing each.
-pub(super) struct Stages<'a> {
-    pub list: Vec<(String, f64)>,
-    total: usize,
-    progress: &'a dyn Progress,
-}
-
-impl<'a> Stages<'a> {
-    pub fn new(total: usize, progress: &'a dyn Progress) -> Self {
-        Stages {
-            list: Vec::new(),
-            total,
-            progress,
-        }
-    }
-
-    /// Run stage `name`; its errors are wrapped with "stage 'name' failed".
-    pub fn run<T>(&mut self, name: &str, f: impl FnOnce(&dyn Progress) -> Result<T>) -> Result<T> {
-        let i = self.list.len() + 1;
-        let total = self.total.max(i);
-        self.progress.stage(i, total, name, None);
-        let t0 = Instant::now();
-        let out = f(self.progress).map_err(|e| e.context(format!("stage '{name}' failed")))?;
-        let dt = t0.elapsed().as_secs_f64();
-        self.progress.stage(i, total, name, Some(dt));
-        self.list.push((name.to_string(), dt));
-        Ok(out)
-    }
-}
 
 /// Stages before the accuracy one: normals (1 to 4, the spatial stage included), integration (unless NIK made the
 /// depth), mesh.

@@ -24,8 +24,9 @@
 //! r, reading A p from the rows of z it is about to overwrite (see `System::cg`).
 //! These change nothing but the number of passes over memory (and the rounding).
 
+use super::level::Level;
 use super::sweep::dot4;
-use super::{Level, System};
+use super::System;
 use rayon::prelude::*;
 
 /// Cells of a level per band, at least.
@@ -535,7 +536,7 @@ impl System {
         });
         // The rows next to each boundary.
         let mut edge = |r: usize, dot: &mut f64| {
-            let (pu, pr, pd) = super::rows(p, s, r);
+            let (pu, pr, pd) = super::level::rows(p, s, r);
             *dot += fine.apply_dot_row(r, pu, pr, pd, &mut z[r * s..(r + 1) * s]);
         };
         for &(a, e) in &bands {

@@ -8,7 +8,7 @@
 //! its own column), so that two independent chains overlap. The order of the updates
 //! is exactly Gauss–Seidel's; only the rounding differs from the textbook formula.
 
-use super::Level;
+use super::level::Level;
 
 /// Σ a_i b_i with four partial sums (a chain of additions per partial sum, not one).
 #[inline(always)]

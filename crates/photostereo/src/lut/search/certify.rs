@@ -2,8 +2,8 @@
 //! from the entries' isolation radii, and the branch and bound over the index when it
 //! fails.
 
-use super::single::even;
 use super::{Fit, Index, Solver, Work};
+use crate::lut::fit::fused::even;
 use std::sync::atomic::Ordering;
 
 /// Grid distance (pixels) from an entry beyond which other entries count as lying
@@ -195,8 +195,8 @@ impl Solver<'_> {
         }
         let (coef, cost) = self.model.fit_with(t, None, tuple(e), tuple(e));
         let (gx, gy) = self.entry_grid(e);
-        wk.s.seeds.clear();
-        wk.s.seeds.push(e);
+        wk.seeds.clear();
+        wk.seeds.push(e);
         wk.candidates = false;
         Some(Some(Fit { gx, gy, coef, cost }))
     }

@@ -4,7 +4,7 @@
 //! **Exhaustive search.** Every point of the coarse grid (about 1500 positions inside
 //! the search disc) is scored by the cost of its 2-variable non-negative least-squares
 //! fit; a pattern descent runs from the best [`COARSE_KEEP`] down to half a pixel and the
-//! refinement (Gauss–Newton with variable projection and the pattern polish, `model.rs`)
+//! refinement (Gauss–Newton with variable projection and the pattern polish, `fit/generic.rs`)
 //! from the best of those. The scan is cheap: the tables' tuples at the grid points are
 //! stored in blocks of 8 points, light by light, with their Gram entries ⟨A,A⟩, ⟨B,B⟩,
 //! ⟨A,B⟩ precomputed, so a block costs two 8-wide multiply-adds per light (AVX when the
@@ -43,7 +43,7 @@
 //! (the exhaustive search at every pixel took 35–49× and 22–55×).
 
 use super::{Fit, Solver, Warm, Work, COARSE_KEEP};
-use crate::lut::model::gram5;
+use crate::lut::fit::generic::gram5;
 
 /// Distance (coarse steps) from the best coarse point within which a fit counts as
 /// lying in its basin.
@@ -334,15 +334,15 @@ impl Solver<'_> {
     /// The mixture's first fit on all lights: from the previous pixel's solution
     /// (extrapolated by its step) when there is one.
     pub(super) fn mixture_first_fit(&self, wk: &mut Work) -> Fit {
-        let from = wk.s.warm.map(|w| Fit {
+        let from = wk.warm.map(|w| Fit {
             gx: w.gx + w.dgx,
             gy: w.gy + w.dgy,
             coef: [0.0; 2],
             cost: f32::INFINITY,
         });
         let fit = self.mixture_fit(false, from, wk);
-        if wk.s.warm.is_none() {
-            wk.s.warm = Some(Warm::at(fit.gx, fit.gy));
+        if wk.warm.is_none() {
+            wk.warm = Some(Warm::at(fit.gx, fit.gy));
         }
         fit
     }
@@ -350,10 +350,12 @@ impl Solver<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{PixelOut, Solver, Work};
+    use super::super::{Solver, Work};
     use crate::image::{dot3, ImageStack, Mask, NormalMap};
+    use crate::lut::fit::{generic::Model, split as diffuse};
+    use crate::lut::output::PixelOut;
     use crate::lut::table::{BuildOptions, Table};
-    use crate::lut::{diffuse, model::Model, Options};
+    use crate::lut::Options;
     use crate::sphere::Circle;
     use crate::synth::{self, Material, SceneOptions, Shape, ShapeKind};
 
@@ -408,7 +410,7 @@ mod tests {
             let mut wk = Work::new(stack.k);
             for c in 0..stack.width {
                 if !*mask.get(r, c) {
-                    wk.s.warm = None;
+                    wk.warm = None;
                     continue;
                 }
                 wk.t[..stack.k].copy_from_slice(stack.pixel(r, c));

@@ -4,12 +4,12 @@
 //! [`crate::lut::Lookup`] (the analogue of a KD-tree library's tree build), and borrowed
 //! by the [`Solver`] of each target.
 
-use super::super::index::Index;
-use super::super::model::Model;
-use super::super::rim::Rim;
-use super::super::{Method, Options};
 use super::certify::UNSET;
+use super::index::Index;
 use super::{coarse_grid, mixture, Solver};
+use crate::lut::fit::generic::Model;
+use crate::lut::fit::rim::Rim;
+use crate::lut::options::{Method, Options};
 use std::sync::atomic::AtomicU32;
 
 /// The target-independent part of a [`Solver`] (see the module docs).

@@ -27,7 +27,7 @@
 //! The entries (tuples, normals, pixels) are derived from the window on loading, so a
 //! file cannot hold entries that disagree with its images.
 
-use super::table::{Table, Window};
+use super::{Table, Window};
 use crate::error::{Error, Result};
 use crate::image::ImageStack;
 use crate::sphere::Circle;
@@ -188,14 +188,14 @@ pub fn decode_content(bytes: &[u8]) -> Result<Table> {
     if h.sample_format != "f32le" {
         return Err(bad(format!("unknown sample format '{}'", h.sample_format)));
     }
-    if h.k < super::table::MIN_LIGHTS || (!h.names.is_empty() && h.names.len() != h.k) {
+    if h.k < super::MIN_LIGHTS || (!h.names.is_empty() && h.names.len() != h.k) {
         return Err(bad(format!("{} lights with {} names", h.k, h.names.len())));
     }
     let (w, hh) = (h.window.width, h.window.height);
     if w < 2 || hh < 2 {
         return Err(bad(format!("window of {w}x{hh} pixels")));
     }
-    let side = crate::io::limits::MAX_SIDE as usize;
+    let side = crate::limits::MAX_SIDE as usize;
     let (col0, row0) = (h.window.col0, h.window.row0);
     if col0.saturating_add(w) > side || row0.saturating_add(hh) > side {
         return Err(bad(format!(

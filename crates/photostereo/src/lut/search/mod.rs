@@ -1,17 +1,20 @@
 //! The per-pixel pipeline: candidate search, re-ranking, refinement, cast shadows and
 //! confidence (see the parent module for the method).
 
-use super::index::Index;
-use super::model::{Fit, Model, Scratch};
-use super::rim::{Rim, RimBuf};
-use super::single::{self, Buf, Single};
-use super::{Method, Options};
+use super::fit::fused::{self, Buf, Single};
+use super::fit::generic::{Fit, Model, Scratch};
+use super::fit::rim::{Rim, RimBuf};
+use super::options::{Method, Options};
+use super::output::PixelOut;
 use crate::image::normalize;
 use std::sync::atomic::AtomicU32;
 
 mod certify;
+pub mod index;
 mod mixture;
 mod prep;
+mod shadows;
+use index::Index;
 pub(crate) use prep::Prep;
 
 /// Target number of points of the coarse grid used by the exhaustive searches.
@@ -115,35 +118,41 @@ pub(crate) struct Work {
     prev_w: Vec<f32>,
     q: Vec<f32>,
     pub s: Scratch,
+    /// Table entries to seed the next tree search with (the last pixel's candidates).
+    pub seeds: Vec<u32>,
+    /// The previous pixel's solution (coherence shortcut); reset at row starts and gaps.
+    pub warm: Option<Warm>,
     b: Buf,
     rim: RimBuf,
     /// ‖t‖ of the current pixel.
     norm: f32,
     /// `q` holds the current pixel's projected query.
     projected: bool,
-    /// `s.seeds` holds the current pixel's tree candidates (the `candidates` entries
+    /// `seeds` holds the current pixel's tree candidates (the `candidates` entries
     /// nearest to its query: the same whichever search found them).
     candidates: bool,
     /// The fast path's buffer holds the current fit's tuple.
     fresh: bool,
     /// The last fast refinement's result position and its final step not taken
-    /// (`single::Point::step`): the warm start extrapolates from position + step.
+    /// (`fused::Point::step`): the warm start extrapolates from position + step.
     settled: (f64, f64, [f64; 2]),
     /// The window pixel of the certificate's corner of the last fast refinement's result
-    /// and the squared distance of the current pixel's tuple to it (`single::Point`);
+    /// and the squared distance of the current pixel's tuple to it (`fused::Point`);
     /// `u32::MAX` when there is none for this pixel.
     corner: (u32, f32),
 }
 
 impl Work {
     pub fn new(k: usize) -> Self {
-        let kp = single::padded(k);
+        let kp = fused::padded(k);
         Work {
             t: vec![0.0; kp],
             w: vec![0.0; kp],
             prev_w: vec![0.0; kp],
             q: vec![0.0; k + 8],
             s: Scratch::new(k),
+            seeds: Vec::with_capacity(index::MAX_CANDIDATES),
+            warm: None,
             b: Buf::new(k),
             rim: RimBuf::new(k),
             norm: 0.0,
@@ -154,19 +163,6 @@ impl Work {
             corner: (u32::MAX, f32::INFINITY),
         }
     }
-}
-
-/// Result at one pixel.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct PixelOut {
-    pub normal: [f32; 3],
-    pub confidence: f32,
-    pub residual: f32,
-    pub coef: [f32; 2],
-    /// Standard error of the mixture weights (two tables only).
-    pub weight_sigma: f32,
-    pub shadowed: u16,
-    pub lit: u16,
 }
 
 /// Everything shared by the workers of one target: the model, the options and the
@@ -205,7 +201,7 @@ impl<'a> Solver<'a> {
     pub fn with(model: Model<'a>, opts: &'a Options, prep: &'a Prep) -> Self {
         let k = model.k;
         let single = (!model.is_mix()).then(|| Single::new(&model.tables[0], opts.normalize));
-        let mut ones = vec![0.0; single::padded(k)];
+        let mut ones = vec![0.0; fused::padded(k)];
         ones[..k].fill(1.0);
         Solver {
             model,
@@ -245,8 +241,8 @@ impl<'a> Solver<'a> {
         )
     }
 
-    /// Solve the pixel whose samples are in `wk.t`; `wk.s.seeds` holds the previous
-    /// pixel's candidates and `wk.s.warm` its solution.
+    /// Solve the pixel whose samples are in `wk.t`; `wk.seeds` holds the previous
+    /// pixel's candidates and `wk.warm` its solution.
     pub fn pixel(&self, wk: &mut Work) -> PixelOut {
         let k = self.model.k;
         wk.norm = norm2(&wk.t).sqrt();
@@ -308,7 +304,7 @@ impl<'a> Solver<'a> {
     /// the better of the two fits is kept. Every pixel therefore fits at least as well as
     /// its own tree search, whatever its neighbours did.
     fn checked_fit(&self, index: &Index, wk: &mut Work) -> Fit {
-        let warm = wk.s.warm.map(|w| {
+        let warm = wk.warm.map(|w| {
             let start = Fit {
                 gx: w.gx + w.dgx,
                 gy: w.gy + w.dgy,
@@ -345,105 +341,13 @@ impl<'a> Solver<'a> {
             _ => g,
         };
         wk.s.rel_ref = relative_to(wk.norm, fit.cost);
-        if wk.s.warm.is_none() {
-            wk.s.warm = Some(Warm::at(fit.gx, fit.gy));
+        if wk.warm.is_none() {
+            wk.warm = Some(Warm::at(fit.gx, fit.gy));
         }
         fit
     }
 
-    /// Cast shadows (module docs, step 4): drop the lights where the target is dark but
-    /// the model of `fit` is lit and search again, up to 3 rounds. Returns the fit and the
-    /// number of dropped lights (weights in `wk.w`).
-    fn drop_shadowed(&self, mut fit: Fit, wk: &mut Work) -> (Fit, u16) {
-        let k = self.model.k;
-        if let (Some(single), true) = (&self.single, wk.fresh) {
-            // the first round's test on the fast path's buffer: usually nothing to drop
-            if !single.any_dark_lit(&wk.t, fit.coef[0], self.level(&fit), &wk.b) {
-                return (fit, 0);
-            }
-        }
-        let mut shadowed = 0u16;
-        for _round in 0..3 {
-            self.predict(&fit, wk);
-            let level = self.dark_level(&fit, wk);
-            let mut new = false;
-            let (t, w, pred) = (&wk.t[..k], &mut wk.w[..k], &wk.s.pred[..k]);
-            for i in 0..k {
-                if w[i] > 0.0 && t[i] < level && pred[i] > t[i] + level {
-                    w[i] = 0.0;
-                    shadowed += 1;
-                    new = true;
-                }
-            }
-            if !new || (k as u16 - shadowed) < 2 {
-                break;
-            }
-            fit = self.masked_search(fit, wk);
-        }
-        (fit, shadowed)
-    }
-
-    /// Dark level of `fit` whose model tuple is in `wk.s.pred`.
-    fn dark_level(&self, fit: &Fit, wk: &Work) -> f32 {
-        if self.model.is_mix() {
-            self.model.mix_dark_level(self.opts.shadow_level, &wk.s)
-        } else {
-            self.level(fit)
-        }
-    }
-
-    /// Coherence for cast shadows (one table): when the previous pixel had lights
-    /// dropped, fit this one from its solution with the same lights dropped, then
-    /// re-derive the dropped set at the new fit (a light is dropped when the target is
-    /// dark there and the model lit, as in step 4) and refit until the set is stable (up
-    /// to 3 fits). Accepted when the relative residual on the lights kept passes the
-    /// coherence test; otherwise `None` and the full search runs.
-    fn shadowed_warm_start(&self, wk: &mut Work) -> Option<(Fit, u16)> {
-        let k = self.model.k;
-        let warm = wk.s.warm.filter(|w| w.masked && self.single.is_some())?;
-        let (kp, w) = (wk.w.len(), &mut wk.w);
-        w.copy_from_slice(&wk.prev_w[..kp]);
-        let mut fit = Fit {
-            gx: warm.gx,
-            gy: warm.gy,
-            coef: [1.0, 0.0],
-            cost: f32::INFINITY,
-        };
-        for _ in 0..3 {
-            fit = self.refine(true, fit, wk);
-            let (t, w) = (&wk.t[..k], &wk.w[..k]);
-            let energy: f32 = t.iter().zip(w).map(|(t, w)| w * t * t).sum();
-            if energy <= 0.0
-                || fit.cost.max(0.0) > energy * (1.5 * wk.s.rel_ref).max(WARM_FLOOR).powi(2)
-            {
-                return None;
-            }
-            self.predict(&fit, wk);
-            let level = self.dark_level(&fit, wk);
-            let (t, w, pred) = (&wk.t[..k], &mut wk.w[..k], &wk.s.pred[..k]);
-            let (mut changed, mut shadowed) = (false, 0u16);
-            for i in 0..k {
-                let lit = !(t[i] < level && pred[i] > t[i] + level);
-                changed |= lit != (w[i] > 0.0);
-                w[i] = if lit { 1.0 } else { 0.0 };
-                shadowed += (!lit) as u16;
-            }
-            if (k as u16 - shadowed) < 2 {
-                return None;
-            }
-            if !changed {
-                // the global check, on the lights kept (module docs, step 4)
-                let index = self.index.as_ref()?;
-                let best = self.tree_match(index, Some(&fit), true, wk);
-                let kept = fit.cost <= best.cost && same_basin(&fit, &best);
-                return kept.then_some((fit, shadowed));
-            }
-            fit.cost = f32::INFINITY;
-        }
-        None
-    }
-
-    /// A fit at the table's edge refitted on the rim model (see `rim.rs`), with the same
+    /// A fit at the table's edge refitted on the rim model (see `fit/rim.rs`), with the same
     /// lights; kept when its residual is lower.
     fn rim_fit(&self, fit: Fit, wk: &mut Work) -> Fit {
         let Some(rim) = &self.rim else {
@@ -469,7 +373,7 @@ impl<'a> Solver<'a> {
 
     /// Remember this pixel's solution for the next one.
     fn update_warm(&self, fit: &Fit, shadowed: u16, wk: &mut Work) {
-        let Some(warm) = wk.s.warm.as_mut() else {
+        let Some(warm) = wk.warm.as_mut() else {
             return;
         };
         let (sx, sy, step) = wk.settled;
@@ -548,7 +452,7 @@ impl<'a> Solver<'a> {
         }
         self.query(index, wk);
         if let Some(f) = near {
-            wk.s.seeds.clear();
+            wk.seeds.clear();
             let (c0, r0) = (
                 f.gx.floor().max(0.0) as usize,
                 f.gy.floor().max(0.0) as usize,
@@ -556,25 +460,25 @@ impl<'a> Solver<'a> {
             for (dr, dc) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
                 let e = self.entry_at(r0 + dr, c0 + dc);
                 if e != u32::MAX {
-                    wk.s.seeds.push(e);
+                    wk.seeds.push(e);
                 }
             }
         }
-        let cands = index.nearest(&wk.q[..index.dims()], self.opts.candidates, &wk.s.seeds);
-        wk.s.seeds.clear();
-        wk.s.seeds.extend_from_slice(&cands.ids[..cands.len]);
+        let cands = index.nearest(&wk.q[..index.dims()], self.opts.candidates, &wk.seeds);
+        wk.seeds.clear();
+        wk.seeds.extend_from_slice(&cands.ids[..cands.len]);
         wk.candidates = true;
         self.best_of_seeds(weighted, wk)
     }
 
-    /// The entry of `wk.s.seeds` (the last tree search's candidates) that fits the target
+    /// The entry of `wk.seeds` (the last tree search's candidates) that fits the target
     /// best with the weights in `wk.w` (`weighted`) or all lights, as a fit.
     fn best_of_seeds(&self, weighted: bool, wk: &Work) -> Fit {
         let k = self.model.k;
         let t = &wk.t[..k];
         let w = weighted.then_some(&wk.w[..k]);
         let mut best = (f32::INFINITY, [1.0, 0.0], u32::MAX);
-        for &e in &wk.s.seeds {
+        for &e in &wk.seeds {
             let tuple = &self.model.tables[0].entries.tuples[e as usize * k..(e as usize + 1) * k];
             let (coef, cost) = self.model.fit_with(t, w, tuple, tuple);
             if cost < best.0 {
@@ -611,40 +515,6 @@ impl<'a> Solver<'a> {
             index.project(t, qd);
         }
         qd
-    }
-
-    /// Search with the lights of weight 0 in `wk.w` dropped: first locally from `from`
-    /// (pattern descent from 4 px, Gauss–Newton), accepted when its relative residual
-    /// passes the coherence test; otherwise the exhaustive search, keeping the better of
-    /// the two.
-    fn masked_search(&self, from: Fit, wk: &mut Work) -> Fit {
-        if self.model.is_mix() {
-            return self.mixture_fit(true, Some(from), wk);
-        }
-        let k = self.model.k;
-        let (t, w) = (&wk.t[..k], &wk.w[..k]);
-        let start = self.model.eval(t, Some(w), from.gx, from.gy, &mut wk.s);
-        let local = self.model.descend(t, Some(w), start, 4.0, &mut wk.s);
-        let energy: f32 = t.iter().zip(w).map(|(t, w)| w * t * t).sum();
-        let local = self.refine(true, local, wk);
-        let rel = if energy > 0.0 {
-            (local.cost.max(0.0) / energy).sqrt()
-        } else {
-            f32::INFINITY
-        };
-        if !self.model.is_mix()
-            && rel <= (1.5 * wk.s.rel_ref).max(WARM_FLOOR)
-            && local.cost <= self.best_of_seeds(true, wk).cost
-        {
-            return local;
-        }
-        let global = self.exhaustive(true, wk);
-        if global.cost < local.cost {
-            global
-        } else {
-            wk.fresh = false;
-            local
-        }
     }
 
     /// Exhaustive search on the coarse grid with the weights in `wk.w` (`weighted`) or
@@ -698,10 +568,10 @@ impl<'a> Solver<'a> {
     fn inverse_distance(&self, index: &Index, m: usize, wk: &mut Work) -> PixelOut {
         let k = self.model.k;
         self.query(index, wk);
+        let cands = index.nearest(&wk.q[..index.dims()], m, &wk.seeds);
+        wk.seeds.clear();
+        wk.seeds.extend_from_slice(&cands.ids[..cands.len]);
         let (t, s) = (&wk.t[..k], &mut wk.s);
-        let cands = index.nearest(&wk.q[..index.dims()], m, &s.seeds);
-        s.seeds.clear();
-        s.seeds.extend_from_slice(&cands.ids[..cands.len]);
         let t0 = &self.model.tables[0];
         let mut acc = [0.0f32; 3];
         for c in 0..cands.len {

@@ -28,7 +28,7 @@
 //! normal between θ_c and 90° is fitted on the model, not clamped to the table's edge.
 
 use super::rim::{Rim, RimBuf};
-use super::table::Table;
+use crate::lut::table::Table;
 
 /// Rounds of the robust refit.
 const ROUNDS: usize = 6;

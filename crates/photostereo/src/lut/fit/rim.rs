@@ -24,8 +24,8 @@
 //! ends it, untaken) from the best, with the same lights and scale as the table fit; the
 //! rim fit replaces the table fit only when its residual is lower.
 
-use super::model::Fit;
-use super::table::Table;
+use super::generic::Fit;
+use crate::lut::table::Table;
 
 /// Polar-angle width (radians) of the ring of entries the model is fitted to.
 const RING: f64 = 12.0 * std::f64::consts::PI / 180.0;

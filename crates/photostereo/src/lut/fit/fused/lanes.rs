@@ -1,4 +1,4 @@
-//! f32 lane vectors for the fused pass of `single.rs`: [`V4`] (SSE2 on x86-64, always
+//! f32 lane vectors for the fused pass of `fused.rs`: [`V4`] (SSE2 on x86-64, always
 //! there; plain arrays elsewhere) and, on x86-64, [`V8`] (AVX) and [`V8F`] (AVX with fused
 //! multiply-adds), used only by `Single::refine`'s wide builds, which run only where the
 //! processor has those features.

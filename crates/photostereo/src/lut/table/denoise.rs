@@ -48,7 +48,7 @@
 
 use rayon::prelude::*;
 
-use super::table::Window;
+use super::window::Window;
 use crate::sphere::Circle;
 
 /// How the sphere's samples are denoised before the table is built (see the module
@@ -438,7 +438,7 @@ mod tests {
         fit_in_normal_space(&mut fitted, &circle, RIM, 2.0);
         let fit_err = largest_change(&fitted, &win, &circle);
         let mut blurred = win.clone();
-        super::super::table::blur_for_tests(&mut blurred, &circle, RIM, 2.0);
+        super::super::window::blur_for_tests(&mut blurred, &circle, RIM, 2.0);
         let blur_err = largest_change(&blurred, &win, &circle);
         println!("largest change: fit {fit_err:.2e}, blur {blur_err:.2e}");
         // measured: fit 1.4e-5, blur 4.1e-2 (at the support's edge)

@@ -1,6 +1,6 @@
 //! Fast path of the sub-pixel refinement for one table.
 //!
-//! It minimises the same cost as [`super::model::Model::refine`] (weighted
+//! It minimises the same cost as [`super::generic::Model::refine`] (weighted
 //! ‖t − c·I(gx, gy)‖² over the continuous sphere position, Gauss–Newton with variable
 //! projection, Levenberg damping 10⁻⁶·tr H, steps of at most 1.5 px, up to 4 halvings),
 //! but fuses the bilinear interpolation of I and of its gradient, the coefficient fit, the
@@ -26,8 +26,8 @@
 //! Stopping rule: the iteration ends when the Gauss–Newton step is below 0.01 px (the
 //! step is then not taken: the position is within about that of the minimum).
 
-use super::model::Fit;
-use super::table::Table;
+use super::generic::Fit;
+use crate::lut::table::Table;
 use std::borrow::Cow;
 
 /// Lane width of the fused pass (lights per block).
@@ -531,7 +531,7 @@ fn shorten(dx: f64, dy: f64, len2: f64) -> (f64, f64) {
 mod tests {
     use super::*;
     use crate::image::{dot3, normalize};
-    use crate::lut::model::{Model, Scratch};
+    use crate::lut::fit::generic::{Model, Scratch};
     use crate::lut::table::test_sphere_table;
     use crate::sphere::Circle;
 

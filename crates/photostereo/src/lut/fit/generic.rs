@@ -25,7 +25,7 @@
 //! [`Model::weight_sigma`] gives the weights' standard error from the covariance of
 //! all four parameters.
 
-use super::table::Table;
+use crate::lut::table::Table;
 
 /// Maximum Gauss–Newton step (pixels).
 const MAX_STEP: f64 = 1.5;
@@ -49,10 +49,6 @@ pub(crate) struct Scratch {
     pub pred: Vec<f32>,
     /// Jacobian columns ∂p/∂gx (first k) and ∂p/∂gy (last k).
     pub jac: Vec<f32>,
-    /// Table entries to seed the next tree search with (the last pixel's candidates).
-    pub seeds: Vec<u32>,
-    /// The previous pixel's solution (coherence shortcut); reset at row starts and gaps.
-    pub warm: Option<super::search::Warm>,
     /// Relative residual √cost/‖t‖ of the last pixel of the row matched or confirmed by
     /// the tree.
     pub rel_ref: f32,
@@ -65,8 +61,6 @@ impl Scratch {
             grad: [vec![0.0; 2 * k], vec![0.0; 2 * k]],
             pred: vec![0.0; k],
             jac: vec![0.0; 2 * k],
-            seeds: Vec::with_capacity(super::index::MAX_CANDIDATES),
-            warm: None,
             rel_ref: 0.0,
         }
     }

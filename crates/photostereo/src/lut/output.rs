@@ -1,9 +1,57 @@
 //! The output images of [`super::solve`], written row by row by the workers (no
 //! per-pixel intermediate buffer, no serial pass over the image afterwards).
 
-use super::search::PixelOut;
-use super::{Output, Stats};
-use crate::image::Image;
+use crate::image::{GrayImage, Image, NormalMap};
+
+/// Result of [`super::solve`]; every image has the target's size, zeros outside the mask.
+#[derive(Clone, Debug)]
+pub struct Output {
+    /// Unit normals inside the mask, [0, 0, 0] outside.
+    pub normals: NormalMap,
+    /// Confidence in [0, 1] (see the module docs); 0 outside the mask.
+    pub confidence: GrayImage,
+    /// RMS match residual per light used, in intensity units.
+    pub residual: GrayImage,
+    /// Albedo of the target relative to the sphere (normalised matching only).
+    pub albedo: Option<GrayImage>,
+    /// Mixture weights (a, b), one image per table (two tables only).
+    pub weights: Option<Vec<GrayImage>>,
+    /// Standard error of the mixture weights, max(σ_a, σ_b) (two tables only; see the
+    /// module docs).
+    pub weight_sigma: Option<GrayImage>,
+    /// Number of lights dropped as cast-shadowed at each pixel.
+    pub shadowed_lights: Image<u16>,
+    /// Number of lights above the dark level at each pixel.
+    pub lit_lights: Image<u16>,
+    /// Summary figures.
+    pub stats: Stats,
+}
+
+/// Summary of a [`super::solve`] run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Stats {
+    /// Pixels solved (inside the mask).
+    pub pixels: usize,
+    /// Pixels with at least one light dropped as cast-shadowed.
+    pub shadowed_pixels: usize,
+    /// Pixels with confidence below 0.5.
+    pub low_confidence_pixels: usize,
+    /// Mean RMS residual over the mask.
+    pub mean_residual: f64,
+}
+
+/// Result at one pixel.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct PixelOut {
+    pub normal: [f32; 3],
+    pub confidence: f32,
+    pub residual: f32,
+    pub coef: [f32; 2],
+    /// Standard error of the mixture weights (two tables only).
+    pub weight_sigma: f32,
+    pub shadowed: u16,
+    pub lit: u16,
+}
 
 /// One plane per output image, row-major; all zero (outside the mask) until written.
 pub(crate) struct Planes {
