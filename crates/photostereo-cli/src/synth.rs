@@ -1,25 +1,28 @@
 //! `photostereo synth`: render a synthetic dataset with ground truth.
 //!
 //! Output directory (DiLiGenT layout, read back by `photostereo` and most tools):
-//! `001.png` … (16-bit gray), `filenames.txt`, `light_directions.txt`,
+//! `001.png` … (16-bit gray, or 8-bit with `--bits 8`), `filenames.txt`, `light_directions.txt`,
 //! `light_intensities.txt`, `mask.png`, and the ground truth `normal_gt.npy` (H, W, 3),
 //! `normal_gt.png`, `depth_gt.npy` (NaN outside the mask), `albedo_gt.npy`, plus
 //! `scene.json` (the parameters). With `--calib-sphere R`, `DIR/sphere/` holds a sphere
 //! of radius R of the same material under the same lights, in the same layout.
 //!
-//! Exposure: images are written as e·radiance clipped to [0, 1] and every light
-//! intensity is written as e, so a loader that divides by the intensities gets the
-//! radiance back. `--exposure auto` (default) picks e = min(1, 0.98/peak radiance) over
-//! the target and the sphere, so highlights do not clip. `--noise` is in units of the
-//! written images (full scale 1), i.e. σ/e in radiance units after loading.
+//! Exposure: images are written as e·radiance (blurred by `--blur`, plus the black level
+//! `--black-level`) clipped to [0, 1] and every light intensity is written as e, so a
+//! loader that divides by the intensities gets the radiance back (plus black level / e).
+//! `--exposure auto` (default) picks e = min(1, (0.98 − black level)/peak radiance) over
+//! the target and the sphere, so highlights do not clip; `--exposure peak` puts the
+//! brightest highlight exactly at full scale (a camera exposed for it); a factor above
+//! those clips the highlights at full scale. `--noise` is in units of the written images
+//! (full scale 1), i.e. σ/e in radiance units after loading.
 
 use crate::progress::Bar;
 use crate::Global;
 use anyhow::Context;
 use photostereo::io;
 use photostereo::synth::{
-    default_lights, peak_radiance, render_calibration_sphere, render_with_progress, Material,
-    Scene, SceneOptions, Shape, ShapeKind,
+    default_lights, exposure_for_full_scale, render_calibration_sphere, render_with_progress,
+    Camera, Material, Scene, SceneOptions, Shape, ShapeKind,
 };
 use std::path::{Path, PathBuf};
 
@@ -27,7 +30,8 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:
   photostereo synth --shape vase --material plastic -k 16 --size 256 --noise 0.01 -o data/vase
-  photostereo synth --shape bowl --material lambertian --albedo-texture -o data/bowl --calib-sphere 100")]
+  photostereo synth --shape bowl --material lambertian --albedo-texture -o data/bowl --calib-sphere 100
+  photostereo synth --material metal --calib-sphere 100 --bits 8 --exposure peak --blur 0.8 --black-level 0.03 -o data/camera")]
 pub struct Args {
     /// Shape: blob, sphere, vase, bowl or vgroove (scaled to the image size).
     #[arg(long, default_value = "blob")]
@@ -54,9 +58,22 @@ pub struct Args {
     /// Seed of the noise and of the albedo texture.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Exposure: `auto` (no clipping) or a factor applied to every radiance.
+    /// Exposure: `auto` (brightest sample at 0.98 of full scale, nothing clipped), `peak`
+    /// (brightest highlight exactly at full scale) or a factor applied to every radiance
+    /// (samples above full scale are clipped).
     #[arg(long, default_value = "auto")]
     pub exposure: String,
+    /// Bits per sample of the written images (8 or 16): the quantisation of the camera.
+    #[arg(long, default_value_t = 16)]
+    pub bits: u8,
+    /// Gaussian optical blur of every image, standard deviation in pixels (before the
+    /// black level, the noise and the quantisation).
+    #[arg(long, default_value_t = 0.0, value_name = "SIGMA")]
+    pub blur: f32,
+    /// Black level added to every sample, as a fraction of full scale (e.g. 0.03), before
+    /// the noise and the quantisation; it is in the images and not removed on loading.
+    #[arg(long, default_value_t = 0.0, value_name = "FRAC")]
+    pub black_level: f32,
     /// Value of the background outside the mask (0 = black).
     #[arg(long, default_value_t = 0.0)]
     pub background: f32,
@@ -90,6 +107,11 @@ fn material(name: &str) -> anyhow::Result<Material> {
 /// Run the subcommand.
 pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     crate::check_output_dir(&args.output)?;
+    anyhow::ensure!(
+        matches!(args.bits, 8 | 16),
+        "--bits {}: give 8 or 16",
+        args.bits
+    );
     let kind: ShapeKind = args.shape.parse()?;
     let mut opts = SceneOptions {
         width: args.size,
@@ -100,7 +122,11 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         cast_shadows: !args.no_shadows,
         albedo_texture: args.albedo_texture,
         noise_sigma: args.noise,
-        quantize_16bit: true,
+        camera: Camera {
+            bits: Some(args.bits as u32),
+            blur_sigma: args.blur,
+            black_level: args.black_level,
+        },
         seed: args.seed,
         exposure: 1.0,
         background: args.background,
@@ -152,34 +178,24 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
 /// that loaders do not flag it as clipped).
 const HEADROOM: f32 = 0.98;
 
-/// The exposure factor: parsed, or `auto` = min(1, 0.98/peak) over target and sphere.
+/// The exposure factor: parsed, `peak` (brightest sample at full scale) or `auto` =
+/// min(1, that at 0.98 of full scale), over target and sphere.
 fn exposure(args: &Args, opts: &SceneOptions) -> anyhow::Result<f32> {
-    if args.exposure != "auto" {
-        let e: f32 = args.exposure.parse().map_err(|_| {
-            anyhow::anyhow!(
-                "--exposure `{}`: give `auto` or a number > 0",
-                args.exposure
-            )
-        })?;
-        anyhow::ensure!(e.is_finite() && e > 0.0, "--exposure must be > 0, got {e}");
-        return Ok(e);
+    let full_scale = |fill: f32| {
+        exposure_for_full_scale(opts, args.calib_sphere, fill)
+            .context("choosing the exposure (--black-level, --calib-sphere)")
+    };
+    match args.exposure.as_str() {
+        "auto" => Ok(full_scale(HEADROOM)?.min(1.0)),
+        "peak" => full_scale(1.0),
+        text => {
+            let e: f32 = text.parse().map_err(|_| {
+                anyhow::anyhow!("--exposure `{text}`: give `auto`, `peak` or a number > 0")
+            })?;
+            anyhow::ensure!(e.is_finite() && e > 0.0, "--exposure must be > 0, got {e}");
+            Ok(e)
+        }
     }
-    let mut peak = peak_radiance(opts)?;
-    if let Some(r) = args.calib_sphere {
-        let side = (2.0 * r.max(0.0)).ceil().min(1e5) as usize + 4;
-        let sphere = SceneOptions {
-            width: side,
-            height: side,
-            shape: Shape::Sphere { radius: r },
-            ..opts.clone()
-        };
-        peak = peak.max(peak_radiance(&sphere).context("calibration sphere")?);
-    }
-    Ok(if peak > HEADROOM {
-        HEADROOM / peak
-    } else {
-        1.0
-    })
 }
 
 /// Write one scene (dataset + ground truth + parameters) into `dir`.
@@ -194,7 +210,8 @@ fn write_scene(
     for v in &mut lights.intensities {
         *v *= opts.exposure;
     }
-    io::write_dataset(dir, &scene.stack, &lights, Some(&scene.mask), 16)
+    let bits = opts.camera.bits.unwrap_or(16) as u8;
+    io::write_dataset(dir, &scene.stack, &lights, Some(&scene.mask), bits)
         .with_context(|| format!("writing the dataset {}", dir.display()))?;
     io::write_normals(&dir.join("normal_gt.npy"), &scene.normals)?;
     io::write_normals_png(
@@ -217,7 +234,9 @@ fn write_scene(
         "exposure": opts.exposure,
         "background": opts.background,
         "seed": opts.seed,
-        "bit_depth": 16,
+        "bit_depth": bits,
+        "blur_sigma": opts.camera.blur_sigma,
+        "black_level": opts.camera.black_level,
     });
     io::write_text(
         &dir.join("scene.json"),

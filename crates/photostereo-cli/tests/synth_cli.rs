@@ -96,6 +96,10 @@ fn synth_rejects_bad_arguments_without_writing() {
         (vec!["--size", "0"], "at least 1 pixel"),
         (vec!["--exposure=-2"], "exposure"),
         (vec!["--shape", "sphere", "--calib-sphere=-3"], "radius"),
+        (vec!["--bits", "12"], "--bits 12"),
+        (vec!["--black-level", "1.5"], "black level"),
+        (vec!["--blur=-1"], "blur"),
+        (vec!["--exposure", "bright"], "`peak`"),
     ] {
         let dir = out_dir("bad");
         let out = Command::new(env!("CARGO_BIN_EXE_photostereo"))
@@ -110,4 +114,92 @@ fn synth_rejects_bad_arguments_without_writing() {
         assert!(err.contains(needle), "{args:?}: `{err}`");
         assert!(!dir.exists(), "{args:?} left {}", dir.display());
     }
+}
+
+/// Run `synth` with `args` on a 48² metal sphere with a calibration sphere of radius 16
+/// and load the target (intensities not applied: the stored samples).
+fn camera_dataset(name: &str, args: &[&str]) -> (photostereo::io::Dataset, PathBuf) {
+    let dir = out_dir(name);
+    let status = Command::new(env!("CARGO_BIN_EXE_photostereo"))
+        .args(["-q", "synth", "--shape", "sphere", "--material", "metal"])
+        .args(["--size", "48", "--calib-sphere", "16", "-k", "8"])
+        .args(args)
+        .arg("-o")
+        .arg(&dir)
+        .status()
+        .unwrap();
+    assert!(status.success(), "{args:?}");
+    let raw = LoadOptions {
+        apply_intensities: false,
+        ..LoadOptions::default()
+    };
+    (load_dataset(&dir, &raw).unwrap(), dir)
+}
+
+#[test]
+fn synth_makes_8bit_blurred_clipped_images_with_a_black_level() {
+    // exposed for the peak: the brightest highlight at (nearly) full scale, 8-bit levels
+    let (peak, dir) = camera_dataset("peak", &["--bits", "8", "--exposure", "peak"]);
+    assert_eq!(peak.bit_depth, 8);
+    let max = peak.stack.data.iter().fold(0f32, |a, &b| a.max(b));
+    assert!(max >= 240.0 / 255.0, "brightest sample {max}");
+    for v in &peak.stack.data {
+        assert!(
+            ((v * 255.0).round() - v * 255.0).abs() < 1e-3,
+            "{v} off the 8-bit levels"
+        );
+    }
+    let e_peak: f32 = std::fs::read_to_string(dir.join("light_intensities.txt"))
+        .unwrap()
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    // an exposure 3× the peak's clips the highlights at full scale
+    let e3 = format!("{}", 3.0 * e_peak);
+    let (over, dir) = camera_dataset("over", &["--bits", "8", "--exposure", &e3]);
+    assert!(over.saturated > 20, "{} clipped samples", over.saturated);
+    let _ = std::fs::remove_dir_all(&dir);
+    // black level 3% everywhere outside the object, blur spreads the highlight
+    let args = [
+        "--bits",
+        "8",
+        "--exposure",
+        "peak",
+        "--black-level",
+        "0.03",
+        "--blur",
+        "1.5",
+    ];
+    let (cam, dir) = camera_dataset("black", &args);
+    let mask = cam.mask.as_ref().unwrap();
+    let black = (0.03f32 * 255.0).round() / 255.0;
+    let corner = cam.stack.pixel(0, 0);
+    assert!(
+        corner.iter().all(|v| (v - black).abs() < 1e-6),
+        "{corner:?}"
+    );
+    let inside = |s: &photostereo::ImageStack| {
+        (0..s.pixels())
+            .filter(|&i| mask.data[i])
+            .map(|i| s.pixel_flat(i)[0])
+            .fold(0f32, f32::max)
+    };
+    assert!(
+        inside(&cam.stack) < inside(&peak.stack),
+        "the blur lowers the highlight"
+    );
+    let sphere = load_dataset(&dir.join("sphere"), &LoadOptions::default()).unwrap();
+    assert_eq!(
+        sphere.bit_depth, 8,
+        "the calibration sphere is made by the same camera"
+    );
+    let json = std::fs::read_to_string(dir.join("scene.json")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(json["bit_depth"], 8);
+    assert!((json["black_level"].as_f64().unwrap() - 0.03).abs() < 1e-6);
+    assert!((json["blur_sigma"].as_f64().unwrap() - 1.5).abs() < 1e-6);
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -33,7 +33,7 @@ fn case(name: &'static str, size: usize, noise: f32) -> Case {
         shape: Shape::preset(ShapeKind::Blob, size, size),
         material: Material::metal(),
         lights: synth::default_lights(16),
-        quantize_16bit: true,
+        camera: photostereo::synth::Camera::quantized(16),
         seed: 3,
         ..SceneOptions::default()
     };

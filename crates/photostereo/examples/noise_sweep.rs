@@ -268,7 +268,6 @@ fn synth_case(material: Material, noise: f32) -> anyhow::Result<Case> {
         shape: Shape::preset(ShapeKind::Blob, 256, 256),
         material,
         noise_sigma: 0.0,
-        quantize_16bit: false,
         seed: 3,
         ..SceneOptions::default()
     };
@@ -276,7 +275,7 @@ fn synth_case(material: Material, noise: f32) -> anyhow::Result<Case> {
     let p = synth::peak_radiance_with_sphere(&opts, 100.0)?;
     opts.exposure = if p > 0.98 { 0.98 / p } else { 1.0 };
     opts.noise_sigma = noise;
-    opts.quantize_16bit = true;
+    opts.camera = synth::Camera::quantized(16);
     let target = synth::render(&opts)?;
     let sphere = synth::render_calibration_sphere(&opts, 100.0)?;
     Ok(Case {

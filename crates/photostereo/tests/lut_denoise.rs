@@ -19,7 +19,7 @@ fn sphere(material: Material, noise: f32) -> ImageStack {
     let mut opts = SceneOptions {
         shape: Shape::preset(ShapeKind::Blob, 256, 256),
         material,
-        quantize_16bit: true,
+        camera: photostereo::synth::Camera::quantized(16),
         seed: 6,
         ..SceneOptions::default()
     };

@@ -21,7 +21,7 @@ fn render(shape: ShapeKind, material: Material, noise: f32, sphere_noise: f32) -
     let mut opts = SceneOptions {
         shape: Shape::preset(shape, 256, 256),
         material,
-        quantize_16bit: true,
+        camera: photostereo::synth::Camera::quantized(16),
         seed: 5,
         ..SceneOptions::default()
     };

@@ -33,7 +33,7 @@ proptest! {
         let o = SceneOptions {
             width: w, height: h, shape: Shape::preset(kind, w, h), material,
             lights: default_lights(k), cast_shadows: shadows, albedo_texture: texture,
-            noise_sigma: noise, quantize_16bit: quant, seed, ..Default::default()
+            noise_sigma: noise, camera: photostereo::synth::Camera { bits: quant.then_some(16), ..Default::default() }, seed, ..Default::default()
         };
         match render(&o) {
             Ok(s) => {

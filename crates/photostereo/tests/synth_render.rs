@@ -294,7 +294,7 @@ fn sixteen_bit_quantisation_error_is_half_a_level() {
     };
     let float = render(&base).unwrap();
     let q = render(&SceneOptions {
-        quantize_16bit: true,
+        camera: photostereo::synth::Camera::quantized(16),
         ..base
     })
     .unwrap();

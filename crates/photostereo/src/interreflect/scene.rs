@@ -6,7 +6,7 @@ use super::radiosity::Model;
 use super::RadiosityOptions;
 use crate::error::{Error, Result};
 use crate::progress::{NoProgress, Progress};
-use crate::synth::{self, random::SplitMix64, Material, Scene, SceneOptions};
+use crate::synth::{self, Material, Scene, SceneOptions};
 
 /// Diagnostics of [`render_with_interreflections`].
 #[derive(Clone, Debug)]
@@ -44,7 +44,7 @@ pub fn render_with_interreflections_report(
     }
     let clean = SceneOptions {
         noise_sigma: 0.0,
-        quantize_16bit: false,
+        camera: synth::Camera::default(),
         ..opts.clone()
     };
     let mut scene = synth::render_with_progress(&clean, progress)?;
@@ -93,23 +93,13 @@ fn indirect_fraction(direct: &Scene, with: &crate::image::ImageStack) -> f32 {
     }
 }
 
-/// Gaussian noise and 16-bit quantisation as in [`crate::synth`] (one seeded stream per row).
+/// The camera of `opts` (blur, black level, noise, quantisation) as in [`crate::synth`],
+/// on the stack with interreflections (its own noise stream).
 fn add_noise(opts: &SceneOptions, scene: &mut Scene) {
-    if opts.noise_sigma <= 0.0 && !opts.quantize_16bit {
-        return;
-    }
-    let row_len = scene.stack.width * scene.stack.k;
-    for (r, row) in scene.stack.data.chunks_mut(row_len.max(1)).enumerate() {
-        let mut rng = SplitMix64::for_stream(opts.seed ^ 0x1_4EF1, r as u64);
-        for v in row.iter_mut() {
-            let mut x = *v as f64;
-            if opts.noise_sigma > 0.0 {
-                x += opts.noise_sigma as f64 * rng.normal();
-            }
-            if opts.quantize_16bit {
-                x = (x.clamp(0.0, 1.0) * 65535.0).round() / 65535.0;
-            }
-            *v = x as f32;
-        }
-    }
+    synth::camera::develop(
+        &mut scene.stack,
+        &opts.camera,
+        opts.noise_sigma,
+        opts.seed ^ 0x1_4EF1,
+    );
 }

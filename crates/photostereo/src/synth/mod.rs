@@ -17,22 +17,27 @@
 //!
 //! Intensity scale: a Lambertian surface of albedo 1 facing a light of intensity 1 gives
 //! 1, so I = ρ·max(n·l, 0) for Lambertian. Specular highlights may exceed 1: the stack
-//! is float. With `quantize_16bit` every sample is clipped to [0, 1] and rounded to a
-//! multiple of 1/65535 (error ≤ 1/131070) — lower `exposure` to avoid clipping highlights;
-//! [`peak_radiance`] gives the brightest sample to choose it (`photostereo synth` does).
+//! is float by default. The [`Camera`] then makes the samples as a camera would
+//! ([`camera`] module docs): optical blur, black level, noise, and with `bits` clipping
+//! to [0, 1] and rounding to 8- or 16-bit levels — choose `exposure` to clip the
+//! highlights or not: [`exposure_for_full_scale`] puts the brightest sample at a given
+//! fraction of full scale (`photostereo synth` does).
 //!
 //! Noise: i.i.d. Gaussian N(0, σ²) added to every sample (background included) after
-//! exposure and before quantisation; values may go negative unless quantised.
+//! exposure, blur and black level and before quantisation; values may go negative
+//! unless quantised.
 //! The generator is SplitMix64 + Box–Muller seeded per row from `seed` ([`random`]), so
 //! a render is deterministic whatever the number of threads.
 
 mod brdf;
+pub mod camera;
 pub mod random;
 mod render;
 pub mod shadow;
 mod shapes;
 
 pub use brdf::{shade, Material};
+pub use camera::Camera;
 pub use shapes::{shape_geometry, Bump, Shape, ShapeKind};
 
 use crate::error::{Error, Result};
@@ -59,8 +64,9 @@ pub struct SceneOptions {
     /// Standard deviation of additive Gaussian noise, in units where the Lambertian
     /// white facing the light is 1 (0 = none).
     pub noise_sigma: f32,
-    /// Clip to [0, 1] and round to 16-bit levels (after noise).
-    pub quantize_16bit: bool,
+    /// How the camera forms the samples: blur, black level, clipping and quantisation
+    /// ([`Camera`]; default float samples, sharp, no black level).
+    pub camera: Camera,
     /// Seed of the noise and of the albedo texture.
     pub seed: u64,
     /// Global scale e of every radiance (before noise); 1 keeps the physical scale.
@@ -71,7 +77,7 @@ pub struct SceneOptions {
 
 impl Default for SceneOptions {
     /// 256×256 blob, shiny plastic, 16 default lights, cast shadows, no texture, no
-    /// noise, float output, seed 0, exposure 1, black background.
+    /// noise, float output (ideal camera), seed 0, exposure 1, black background.
     fn default() -> Self {
         SceneOptions {
             width: 256,
@@ -82,7 +88,7 @@ impl Default for SceneOptions {
             cast_shadows: true,
             albedo_texture: false,
             noise_sigma: 0.0,
-            quantize_16bit: false,
+            camera: Camera::default(),
             seed: 0,
             exposure: 1.0,
             background: 0.0,
@@ -169,6 +175,31 @@ pub fn peak_radiance_with_sphere(opts: &SceneOptions, radius: f64) -> Result<f32
     Ok(peak_radiance(opts)?.max(peak_radiance(&sphere)?))
 }
 
+/// The exposure that puts the brightest sample of the target of `opts` (and of its
+/// calibration sphere of radius `sphere` pixels, if any) at the fraction `fill` of full
+/// scale, black level included: e = (`fill` − black level) / peak radiance
+/// ([`peak_radiance`], an upper bound: blur and cast shadows only lower it). `fill` 1 is
+/// a camera "exposed for the brightest highlight"; e is 1 for a black scene.
+///
+/// Errors: `fill` not above the black level or above 1; the errors of [`peak_radiance`].
+pub fn exposure_for_full_scale(opts: &SceneOptions, sphere: Option<f64>, fill: f32) -> Result<f32> {
+    let room = fill - opts.camera.black_level;
+    if !(room > 0.0 && fill <= 1.0) {
+        return Err(Error::invalid(
+            format!(
+                "brightest sample at {fill} of full scale with a black level of {}",
+                opts.camera.black_level
+            ),
+            "put the brightest sample above the black level and at most at full scale (1)",
+        ));
+    }
+    let peak = match sphere {
+        Some(r) => peak_radiance_with_sphere(opts, r)?,
+        None => peak_radiance(opts)?,
+    };
+    Ok(if peak > 0.0 { room / peak } else { 1.0 })
+}
+
 /// The scene of [`render_calibration_sphere`].
 fn calibration_sphere_options(opts: &SceneOptions, radius: f64) -> Result<SceneOptions> {
     if !(radius.is_finite() && radius > 0.0 && radius < 1e5) {
@@ -248,6 +279,7 @@ fn validate(opts: &SceneOptions) -> Result<()> {
         ));
     }
     opts.shape.validate()?;
+    opts.camera.validate()?;
     opts.material.validate()
 }
 

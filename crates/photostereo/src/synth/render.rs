@@ -1,6 +1,6 @@
 //! The per-pixel render loop, parallel over image rows (rayon).
 
-use super::random::{albedo_texture, SplitMix64};
+use super::random::albedo_texture;
 use super::shadow::Occluder;
 use super::{shade, shape_geometry, Scene, SceneOptions};
 use crate::error::Result;
@@ -35,15 +35,14 @@ pub(super) fn render_scene(opts: &SceneOptions, progress: &dyn Progress) -> Resu
         .zip(shadowed.data.par_chunks_mut(w))
         .enumerate()
         .for_each(|(r, (row, shadow_row))| {
-            let mut rng = SplitMix64::for_stream(opts.seed, r as u64);
             for c in 0..w {
                 let px = &mut row[c * k..(c + 1) * k];
                 shadow_row[c] = shade_pixel(opts, &field, (r, c), &normals, &texture, px);
-                finish_pixel(opts, px, &mut rng);
             }
             progress.advance(1);
         });
     progress.finish();
+    super::camera::develop(&mut stack, &opts.camera, opts.noise_sigma, opts.seed);
     Ok(Scene {
         stack,
         lights: opts.lights.clone(),
@@ -83,18 +82,4 @@ fn shade_pixel(
         };
     }
     count
-}
-
-/// Noise and quantisation of one pixel's K samples.
-fn finish_pixel(opts: &SceneOptions, px: &mut [f32], rng: &mut SplitMix64) {
-    for v in px.iter_mut() {
-        let mut x = *v as f64;
-        if opts.noise_sigma > 0.0 {
-            x += opts.noise_sigma as f64 * rng.normal();
-        }
-        if opts.quantize_16bit {
-            x = (x.clamp(0.0, 1.0) * 65535.0).round() / 65535.0;
-        }
-        *v = x as f32;
-    }
 }
