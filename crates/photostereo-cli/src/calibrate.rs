@@ -85,7 +85,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     };
     say(crate::lights::circle_line(source, &det));
     if let Some(w) = det.warning() {
-        eprintln!("{w}");
+        eprintln!("{w} ({})", crate::advice::UNCERTAIN_CIRCLE);
     }
     if args.circle.is_some() {
         check_given(&data.stack, &c, &say);

@@ -71,7 +71,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     };
     say(circle_line(source, &det));
     if let Some(w) = det.warning() {
-        eprintln!("{w}");
+        eprintln!("{w} ({})", crate::advice::UNCERTAIN_CIRCLE);
     }
     // --chrome is the default; it only documents the choice
     let matte = args.matte && !args.chrome;

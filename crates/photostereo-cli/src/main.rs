@@ -4,6 +4,7 @@
 
 use clap::{Parser, Subcommand};
 
+mod advice;
 mod bench;
 mod calibrate;
 mod demo;
@@ -92,6 +93,9 @@ fn main() {
     };
     if let Err(err) = result {
         eprintln!("error: {}", error_message(&err));
+        if let Some(hint) = advice::advice(&err) {
+            eprintln!("hint: {hint}");
+        }
         std::process::exit(1);
     }
 }

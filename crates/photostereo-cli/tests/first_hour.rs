@@ -278,7 +278,9 @@ fn bad_paths_are_named_with_the_fix() {
     );
     let t = text(&o);
     assert!(
-        t.contains("--lights nope.txt: no such file") && t.contains("8 lines"),
+        t.contains("light directions nope.txt: no such file")
+            && t.contains("8 lines")
+            && t.contains("hint: --lights FILE"),
         "{t}"
     );
     // A sphere under other lights (12 images for an 8-image target).

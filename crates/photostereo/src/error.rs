@@ -1,15 +1,20 @@
 //! The one error type of the library.
 //!
 //! Every variant carries the facts a user needs to fix the problem: the file,
-//! what was expected and what was found, and (in `fix`) what to do about it.
+//! what was expected and what was found, and (in `fix`) what to do about it, in terms
+//! of the data: the library knows no command-line flags or keywords. A setting of the
+//! call that is wrong is named by [`Setting`] in [`Error::Setting`], so that each front
+//! end (the CLI, the Python module) can add its own name for it.
 
 use std::path::PathBuf;
 
 /// Result alias used throughout the crate.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
-/// Everything that can go wrong in photostereo.
+/// Everything that can go wrong in photostereo. New variants may be added: match with
+/// a `_` arm.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum Error {
     /// A file or directory could not be read or written. (`cause` is not the error's
     /// `source()`: the message already holds it, and printing the chain would say it twice.)
@@ -71,6 +76,15 @@ pub enum Error {
     #[error("lookup table {what} does not match the target: {reason}")]
     TableMismatch { what: String, reason: String },
 
+    /// A setting of the call (not the data) is missing, out of range or in conflict
+    /// with another; `setting` says which, for a front end to name its own flag.
+    #[error("{what}: {fix}")]
+    Setting {
+        setting: Setting,
+        what: String,
+        fix: String,
+    },
+
     /// Any other invalid argument or data, with the fix.
     #[error("{what}: {fix}")]
     InvalidInput { what: String, fix: String },
@@ -82,7 +96,43 @@ pub enum Error {
     Context { context: String, inner: Box<Error> },
 }
 
+/// The settings an [`Error::Setting`] is about. New ones may be added: match with a
+/// `_` arm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Setting {
+    /// How the normals are obtained: a calibration sphere of the target's material
+    /// (lookup table), or Lambertian photometric stereo; exactly one of them.
+    Method,
+    /// The data given (light directions, a chrome sphere, an image scale,
+    /// interreflection removal) are for Lambertian photometric stereo, which was not
+    /// asked for.
+    Lambertian,
+    /// The file of light directions (K lines `x y z`, one per image in image order).
+    LightsFile,
+    /// Light directions are needed and the dataset has none (no
+    /// `light_directions.txt`): a file of them, or a chrome sphere to calibrate them.
+    Lights,
+    /// The factor that brings the images to radiance units.
+    ImageScale,
+    /// The calibration sphere's circle (centre x, y and radius, pixels).
+    Circle,
+    /// Where the calibration sphere is searched: a region or a mask of the images.
+    SphereSearch,
+    /// The side (pixels) of the facet blocks of the interreflection model.
+    FacetBlock,
+}
+
 impl Error {
+    /// Shorthand for [`Error::Setting`].
+    pub fn setting(setting: Setting, what: impl Into<String>, fix: impl Into<String>) -> Self {
+        Error::Setting {
+            setting,
+            what: what.into(),
+            fix: fix.into(),
+        }
+    }
+
     /// Shorthand for [`Error::InvalidInput`].
     pub fn invalid(what: impl Into<String>, fix: impl Into<String>) -> Self {
         Error::InvalidInput {

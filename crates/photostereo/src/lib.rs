@@ -58,7 +58,7 @@ pub mod spatial;
 pub mod sphere;
 pub mod synth;
 
-pub use error::{Error, Result};
+pub use error::{Error, Result, Setting};
 pub use image::{DepthMap, GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
 
 /// The README's Rust code, compiled and run by `cargo test --doc` so that it stays true.

@@ -4,7 +4,7 @@
 mod shared_data;
 mod sphere_support;
 
-use photostereo::error::Error;
+use photostereo::error::{Error, Setting};
 use photostereo::image::ImageStack;
 use photostereo::lightcal::{from_chrome_sphere, from_matte_sphere, ChromeOptions, MatteOptions};
 use photostereo::sphere::{detect, Circle, DetectOptions};
@@ -119,10 +119,19 @@ fn circle_outside_the_image_is_refused() {
         cy: 20.0,
         radius: 15.0,
     };
+    let outside = |e: &Error| {
+        matches!(
+            e,
+            Error::Setting {
+                setting: Setting::Circle,
+                ..
+            }
+        )
+    };
     let err = from_matte_sphere(&stack, &c, &MatteOptions::default()).unwrap_err();
-    assert!(matches!(err, Error::InvalidInput { .. }), "{err}");
+    assert!(outside(&err), "{err}");
     let err = from_chrome_sphere(&stack, &c, &ChromeOptions::default()).unwrap_err();
-    assert!(matches!(err, Error::InvalidInput { .. }), "{err}");
+    assert!(outside(&err), "{err}");
 }
 
 #[test]

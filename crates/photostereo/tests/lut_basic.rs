@@ -7,7 +7,7 @@ use lut_support::*;
 use photostereo::image::ImageStack;
 use photostereo::lut::{self, BuildOptions, Method, Options, Output, Table};
 use photostereo::progress::NoProgress;
-use photostereo::Error;
+use photostereo::{Error, Setting};
 
 const SHINY: Brdf = Brdf {
     kd: 0.6,
@@ -332,7 +332,10 @@ fn bad_inputs_are_clear_errors() {
     circle.cx = 35.0;
     assert!(matches!(
         Table::build(&sph, &circle, &BuildOptions::default()),
-        Err(Error::InvalidInput { .. })
+        Err(Error::Setting {
+            setting: Setting::Circle,
+            ..
+        })
     ));
 
     let mut t = table(MATTE, 6, 0.0);

@@ -14,7 +14,7 @@
 
 use super::facets::Facets;
 use super::Visibility;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, Setting};
 use crate::progress::Progress;
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -65,13 +65,14 @@ impl Kernel {
     pub fn build(facets: &Facets, opts: &KernelOptions, progress: &dyn Progress) -> Result<Self> {
         let n = facets.len();
         if n > opts.max_facets {
-            return Err(Error::invalid(
+            return Err(Error::setting(
+                Setting::FacetBlock,
                 format!(
                     "interreflection kernel of {n} facets (limit {})",
                     opts.max_facets
                 ),
                 format!(
-                    "use a larger facet block than {} px (--block {}) or a smaller mask",
+                    "use facet blocks larger than {} px (e.g. {} px) or a smaller mask",
                     facets.block,
                     facets.block * 2
                 ),

@@ -89,8 +89,8 @@ pub fn warnings(job: &Job, confidence: Option<&GrayImage>, opts: &super::Options
                  (mean {:.3}). The sphere's intensities do not cover the target's: the sphere is \
                  probably not of the target's material, or not under the same lights, or the \
                  exposures differ. These normals and this depth are not to be trusted; use a \
-                 sphere of the same material under the same lights (or --lambertian for a matte \
-                 object).",
+                 sphere of the same material under the same lights (or Lambertian photometric \
+                 stereo for a matte object).",
                 100.0 * low as f64 / inside.len() as f64,
                 inside.iter().map(|&v| f64::from(v)).sum::<f64>() / inside.len() as f64
             ));
@@ -100,9 +100,10 @@ pub fn warnings(job: &Job, confidence: Option<&GrayImage>, opts: &super::Options
         w.push(
             "image scale unknown: interreflection removal needs images in radiance units (the \
              bounced light is proportional to the absolute albedo, which photometric stereo \
-             knows only up to the camera's gain). Nothing said so here (no --image-scale, no \
+             knows only up to the camera's gain). Nothing said so here (no image scale given, no \
              meta.json scale): with 8-bit photographs the depth of a concavity may be off by \
-             several percent. Give --image-scale F or calibrated light_intensities.txt."
+             several percent. Give the image scale (the factor to radiance units) or \
+             calibrated light_intensities.txt."
                 .to_string(),
         );
     }

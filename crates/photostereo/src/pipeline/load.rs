@@ -7,7 +7,7 @@ use std::time::Instant;
 use serde_json::Value;
 
 use super::{Calibration, Job, Normals, Options, Output, Titles, Truth};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, Setting};
 use crate::image::{Lights, Mask};
 use crate::progress::Progress;
 use crate::{io, lightcal, sphere};
@@ -85,7 +85,7 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         let scale = radiance_scale(&inputs.target, inputs.image_scale, opts.interreflections)?;
         target.stack.data.iter_mut().for_each(|v| *v *= scale);
         let from = match (inputs.image_scale.is_some(), scale_known) {
-            (true, _) => "given (--image-scale)",
+            (true, _) => "given",
             (false, true) => "from meta.json (65535 / scale)",
             (false, false) => "not given: images taken as radiance units",
         };
@@ -177,21 +177,25 @@ fn check(inputs: &Inputs, opts: &Options) -> Result<()> {
         + usize::from(inputs.calibration.is_some())
         + usize::from(inputs.lambertian);
     if ways != 1 {
-        return Err(Error::invalid(
+        return Err(Error::setting(
+            Setting::Method,
             "say how to get normals",
-            "--sphere SPHERE_DIR (calibration-based) or --lambertian, one of them",
+            "give a calibration sphere of the target's material (or its table), or ask for \
+             Lambertian photometric stereo: one of them",
         ));
     }
     if !inputs.lambertian && (inputs.lights.is_some() || inputs.chrome.is_some()) {
-        return Err(Error::invalid(
+        return Err(Error::setting(
+            Setting::Lambertian,
             "light directions or a chrome sphere",
-            "they are for Lambertian photometric stereo: add --lambertian",
+            "they are for Lambertian photometric stereo, which was not asked for",
         ));
     }
     if !inputs.lambertian && (opts.interreflections || inputs.image_scale.is_some()) {
-        return Err(Error::invalid(
+        return Err(Error::setting(
+            Setting::Lambertian,
             "interreflection removal and the image scale",
-            "they are for Lambertian photometric stereo: add --lambertian",
+            "they are for Lambertian photometric stereo, which was not asked for",
         ));
     }
     Ok(())
@@ -208,8 +212,9 @@ pub fn radiance_scale(dir: &Path, given: Option<f32>, use_meta: bool) -> Result<
         None => 1.0,
     };
     if !(scale.is_finite() && scale > 0.0) {
-        return Err(Error::invalid(
-            format!("--image-scale {scale}"),
+        return Err(Error::setting(
+            Setting::ImageScale,
+            format!("image scale {scale}"),
             "use a finite factor > 0",
         ));
     }
@@ -232,19 +237,21 @@ fn lights(
 ) -> Result<(Lights, Option<sphere::Detection>)> {
     if let Some(file) = &inputs.lights {
         if !file.is_file() {
-            return Err(Error::invalid(
-                format!("--lights {}: no such file", file.display()),
+            return Err(Error::setting(
+                Setting::LightsFile,
+                format!("light directions {}: no such file", file.display()),
                 format!(
                     "give a text file of {k} lines `x y z` (one light direction per image, in \
-                     image order), or leave --lights out to use the dataset's light_directions.txt"
+                     image order), or none to use the dataset's light_directions.txt"
                 ),
             ));
         }
         let lights = io::read_lights(file)?;
         if lights.len() != k {
-            return Err(Error::invalid(
+            return Err(Error::setting(
+                Setting::LightsFile,
                 format!(
-                    "--lights {}: {} directions for {k} images",
+                    "light directions {}: {} directions for {k} images",
                     file.display(),
                     lights.len()
                 ),
@@ -262,9 +269,10 @@ fn lights(
         return Ok((lights, Some(det)));
     }
     from_dataset.map(|l| (l, None)).ok_or_else(|| {
-        Error::invalid(
+        Error::setting(
+            Setting::Lights,
             format!("{}: no light_directions.txt", inputs.target.display()),
-            "give --lights FILE or --chrome CHROME_DIR",
+            "give a file of light directions, or a chrome sphere's images to calibrate them",
         )
     })
 }

@@ -4,7 +4,7 @@
 
 use super::fit::{self, fit_robust, FitOptions};
 use super::{contrast, edges, rim, Circle, DetectOptions, Detection};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, Setting};
 use crate::image::{GrayImage, ImageStack, Mask};
 use rayon::prelude::*;
 
@@ -24,7 +24,7 @@ pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
     let (w, h) = (stack.width, stack.height);
     let max_image = stack.max_image();
     if let Some(c) = opts.circle {
-        c.check_inside(w, h, "--circle")?;
+        c.check_inside(w, h, "the given circle")?;
         return Ok(Detection {
             circle: c,
             rms_residual_px: 0.0,
@@ -52,9 +52,10 @@ pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
             return Ok(det);
         }
         (None, true) => {
-            return Err(Error::invalid(
+            return Err(Error::setting(
+                Setting::SphereSearch,
                 "sphere detection from the mask outline",
-                "no mask was given: pass the sphere's mask (--mask FILE)",
+                "no mask was given: give the sphere's mask",
             ))
         }
         (_, false) => detect_blob(&max_image, search.as_ref(), win, opts, max_image.clone()),
@@ -291,7 +292,7 @@ fn not_found(reason: String) -> Error {
     Error::SphereNotFound {
         what: "the maximum of the calibration images".into(),
         reason,
-        fix: "check that the images show one bright sphere on a darker background, restrict the search with --sphere-region x,y,w,h or --mask, or give the circle with --circle cx,cy,r".into(),
+        fix: "check that the images show one bright sphere on a darker background, restrict the search to a region or a mask around the sphere, or give the circle by hand (centre x, y and radius in pixels)".into(),
     }
 }
 

@@ -160,7 +160,7 @@ pub fn fit_robust(points: &[[f64; 2]], opts: &FitOptions) -> Result<CircleFit> {
     let not_found = |reason: &str| Error::SphereNotFound {
         what: "edge points".into(),
         reason: reason.into(),
-        fix: "pass the circle by hand (--circle cx,cy,r)".into(),
+        fix: "give the circle by hand (centre x, y and radius in pixels)".into(),
     };
     if points.len() < 3 {
         return Err(not_found("fewer than 3 edge points"));

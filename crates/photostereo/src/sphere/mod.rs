@@ -87,7 +87,7 @@ mod rim;
 pub use detect::detect;
 pub use overlay::{encode_png, overlay};
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, Setting};
 use crate::image::{GrayImage, ImageStack, Mask};
 
 /// A circle in continuous image coordinates (pixels).
@@ -130,12 +130,13 @@ impl Circle {
         if ok {
             return Ok(());
         }
-        Err(Error::invalid(
+        Err(Error::setting(
+            Setting::Circle,
             format!(
                 "{what}: circle cx={:.2}, cy={:.2}, r={:.2} does not lie inside the {width}x{height} image",
                 self.cx, self.cy, self.radius
             ),
-            "the whole sphere must be visible: check --circle cx,cy,r (pixels, x along columns, y along rows) or reframe the sphere",
+            "the whole sphere must be visible: check the circle (pixels, x along columns, y along rows) or reframe the sphere",
         ))
     }
 }
@@ -238,7 +239,7 @@ impl Detection {
     pub fn warning(&self) -> Option<String> {
         (self.uncertainty_px > UNCERTAIN_PX).then(|| {
             format!(
-                "warning: the sphere's circle is uncertain by {:.2} px (> {UNCERTAIN_PX} px): grazing normals of the table will be off; check overlay.png, or give the circle with --circle cx,cy,r",
+                "warning: the sphere's circle is uncertain by {:.2} px (> {UNCERTAIN_PX} px): grazing normals of the table will be off; check overlay.png, or give the circle by hand",
                 self.uncertainty_px
             )
         })

@@ -8,7 +8,7 @@
 //! along the radius, which keeps the interpolation defined (and free of background)
 //! everywhere the solver may look.
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, Setting};
 use crate::image::ImageStack;
 use crate::sphere::Circle;
 
@@ -111,11 +111,14 @@ pub const MIN_LIGHTS: usize = 3;
 impl Table {
     /// Build the table from the K calibration images and the sphere's circle.
     ///
-    /// Errors: K < 3 ([`Error::LightCount`]); a circle that leaves the images, a bad rim,
-    /// or a sphere too small to hold a table ([`Error::InvalidInput`]).
+    /// Errors: K < 3 ([`Error::LightCount`]); a circle that leaves the images
+    /// ([`Error::Setting`] with [`Setting::Circle`]); a bad rim, or a sphere too small to
+    /// hold a table ([`Error::InvalidInput`]).
     pub fn build(stack: &ImageStack, circle: &Circle, opts: &BuildOptions) -> Result<Table> {
         check_lights(stack.k, "calibration images")?;
-        check_circle(circle, stack.width, stack.height)?;
+        if let Some((what, fix)) = circle_outside(circle, stack.width, stack.height) {
+            return Err(Error::setting(Setting::Circle, what, fix));
+        }
         let col0 = (circle.cx - circle.radius).floor().max(0.0) as usize;
         let row0 = (circle.cy - circle.radius).floor().max(0.0) as usize;
         let col1 = ((circle.cx + circle.radius).ceil() as usize).min(stack.width);
@@ -186,7 +189,10 @@ impl Table {
             cy: circle.cy - window.row0 as f64,
             radius: circle.radius,
         };
-        check_circle(&shifted, window.stack.width, window.stack.height)?;
+        if let Some((what, fix)) = circle_outside(&shifted, window.stack.width, window.stack.height)
+        {
+            return Err(Error::invalid(what, fix));
+        }
         if !(rim >= 1.0 && rim < circle.radius / 2.0) {
             return Err(Error::invalid(
                 format!(
@@ -385,22 +391,22 @@ pub(crate) fn check_lights(k: usize, what: &str) -> Result<()> {
 }
 
 /// Error unless the circle lies inside a `width` x `height` image.
-fn check_circle(c: &Circle, width: usize, height: usize) -> Result<()> {
+fn circle_outside(c: &Circle, width: usize, height: usize) -> Option<(String, &'static str)> {
     let finite = c.cx.is_finite() && c.cy.is_finite() && c.radius.is_finite();
     let inside = c.cx - c.radius >= 0.0
         && c.cy - c.radius >= 0.0
         && c.cx + c.radius <= width as f64
         && c.cy + c.radius <= height as f64;
-    if !finite || c.radius <= 0.0 || !inside {
-        return Err(Error::invalid(
+    (!finite || c.radius <= 0.0 || !inside).then(|| {
+        (
             format!(
                 "sphere circle (cx {:.2}, cy {:.2}, r {:.2}) in {width}x{height} images",
                 c.cx, c.cy, c.radius
             ),
-            "the whole circle must lie inside the images; check --circle or the sphere region",
-        ));
-    }
-    Ok(())
+            "the whole circle must lie inside the images; check the circle or the region the \
+             sphere was searched in",
+        )
+    })
 }
 
 /// A table of a synthetic sphere for unit tests: `circle` in `size`² images under `k`
