@@ -9,13 +9,16 @@ use std::path::PathBuf;
 
 /// Arguments of `photostereo calibrate`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Examples:\n  \
-photostereo calibrate data/sphere -o sphere.lut --material 'red plastic'\n  \
-photostereo calibrate data/scene --sphere-region 10,20,200,200 -o sphere.lut\n  \
-photostereo calibrate data/sphere --circle 102,102,100 --rim 3 -o sphere.lut\n\n\
+#[command(
+    after_help = "Examples (after those of `photostereo synth --help`):\n  \
+photostereo calibrate data/vase/sphere -o sphere.lut --material 'red plastic'\n  \
+photostereo calibrate data/vase/sphere --sphere-region 0,0,204,204 -o sphere_region.lut\n  \
+photostereo calibrate data/vase/sphere --circle 102,102,100 --rim 3 -o sphere_given.lut\n  \
+photostereo calibrate data/matte_ball -o matte.lut\n\n\
 SPHERE_DIR holds the K images of a sphere of the target's material under the target's lights \
 (DiLiGenT layout). The sphere is found in the maximum of the images; NAME_overlay.png (the circle \
-on that image; NAME = the table's file name without extension) is written beside the table: check it.")]
+on that image; NAME = the table's file name without extension) is written beside the table: check it."
+)]
 pub struct Args {
     /// Directory with the sphere's images.
     #[arg(value_name = "SPHERE_DIR")]
@@ -31,7 +34,7 @@ pub struct Args {
     /// Search the sphere only inside this mask (PNG/TIFF/.npy, non-zero = sphere);
     /// default SPHERE_DIR/mask.png if present, as in `run --sphere`. The mask only says
     /// where to look: the circle is always fitted to the rim in the images.
-    #[arg(long, value_name = "MASK")]
+    #[arg(long = "sphere-mask", visible_alias = "mask", value_name = "MASK")]
     mask: Option<PathBuf>,
     /// Free-text name of the sphere's material, stored in the table.
     #[arg(long, value_name = "NAME", default_value = "")]
@@ -87,8 +90,20 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     if let Some(w) = det.warning() {
         eprintln!("{w} ({})", crate::advice::UNCERTAIN_CIRCLE);
     }
-    if args.circle.is_some() {
-        check_given(&data.stack, &c, &say);
+    if let Some(given) = &args.circle {
+        let check = sphere::checks::check_given_circle(&data.stack, given, &detect);
+        say(check.describe());
+        if let Some(w) = check.warning() {
+            eprintln!("warning: {w} (leave out --circle)");
+        }
+    }
+    // a given circle is checked against the one found above; a found one here
+    if args.circle.is_none() {
+        let shape = sphere::checks::check_shape(&det, data.mask.as_ref());
+        say(shape.describe());
+        if let Some(w) = shape.warning() {
+            eprintln!("warning: {w}");
+        }
     }
     let opts = BuildOptions {
         rim: args.rim,
@@ -119,29 +134,6 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     ));
     Ok(())
 }
-
-/// A given circle's rim residual beside the best the rim model does
-/// ([`sphere::check_circle`]); a warning above [`RIM_RATIO_WARN`].
-fn check_given(stack: &photostereo::image::ImageStack, c: &Circle, say: &dyn Fn(String)) {
-    let Some(check) = sphere::check_circle(stack, c) else {
-        return;
-    };
-    let ratio = check.ratio();
-    say(format!(
-        "given circle against the images' rim: residual {ratio:.2}x that of the rim fitted freely (about 1 on the rim)"
-    ));
-    if ratio > RIM_RATIO_WARN {
-        eprintln!(
-            "warning: the given circle does not follow the sphere's rim in the images (residual {ratio:.2}x the best fit): check the circle in the overlay, or let calibrate find it (leave out --circle)"
-        );
-    }
-}
-
-/// Rim residual ratio above which a given circle is said not to follow the rim (the
-/// true circle of renders: 1.04–1.30; 1 px off a synth sphere of radius 30: 1.94;
-/// DiLiGenT's ball on the circle of its true normals, 0.5–0.75 px inside the
-/// photographed rim: 3.0).
-const RIM_RATIO_WARN: f64 = 1.5;
 
 /// How the table was denoised, for the log line: the blur's σ, or the normal-space fit
 /// built on it (the same rule as `Table::build`'s [`Denoise::Auto`]).

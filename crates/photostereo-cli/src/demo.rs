@@ -25,7 +25,12 @@ use crate::Global;
 )]
 pub struct Args {
     /// Output directory (created): one sub-directory per scene with its report.
-    #[arg(short, long, default_value = "demo-out")]
+    #[arg(
+        short,
+        long = "output",
+        visible_alias = "out",
+        default_value = "demo-out"
+    )]
     pub out: PathBuf,
     /// Side of the target images in pixels (the sphere has radius 0.4 × size).
     #[arg(long, default_value_t = 256)]

@@ -11,8 +11,8 @@ use std::path::PathBuf;
 /// Arguments of `photostereo eval`.
 #[derive(clap::Args, Debug)]
 #[command(
-    after_help = "Example:\n  photostereo eval --normals out/normals.npy --gt data/normal_gt.npy \
---mask data/mask.png --depth out/depth.npy --depth-gt data/depth_gt.npy\n\n\
+    after_help = "Example:\n  photostereo eval --normals out/normals/normals.npy --gt data/vase/normal_gt.npy \
+--mask data/vase/mask.png --depth out/depth.npy --depth-gt data/vase/depth_gt.npy\n\n\
 Pixels count inside the mask (all pixels without --mask) where the ground truth is defined; \
 an estimate that is NaN or zero there counts as 180°."
 )]

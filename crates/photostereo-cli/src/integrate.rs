@@ -11,10 +11,10 @@ use std::time::Instant;
 /// Arguments of `photostereo integrate`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:
-  photostereo integrate normals.npy --mask mask.png -o depth.npy --mesh shape.ply
-  photostereo integrate normals.npy --method dct -o depth.npy
-  photostereo integrate normals.npy --mask mask.png --weights confidence.npy -o depth.npy --mesh shape.obj
-  photostereo integrate normals.npy --mask mask.png --method bini --camera K.txt -o depth.npy --mesh shape.ply
+  photostereo integrate out/normals/normals.npy --mask data/vase/mask.png -o out/depth.npy --mesh out/shape.ply
+  photostereo integrate out/normals/normals.npy --integrator dct -o out/depth_dct.npy
+  photostereo integrate out/normals/normals.npy --mask data/vase/mask.png --weights out/normals/confidence.npy -o out/depth_w.npy --mesh out/shape.obj
+  photostereo integrate out/normals/normals.npy --mask data/vase/mask.png --integrator bini --focal 600 -o out/depth_bini.npy --mesh out/bini.ply
 
 Writes DEPTH.npy (float32, H x W, pixel units, larger = closer, NaN outside the mask) and a
 false-colour DEPTH.png next to it. Methods: path (two cumulative paths, reports their
@@ -31,8 +31,9 @@ pub struct Args {
     /// Object mask (PNG or .npy); default: the whole image.
     #[arg(long)]
     pub mask: Option<PathBuf>,
-    /// path, fc, fc-reflect, dct, lsq or bini (default: lsq with a mask, dct without).
-    #[arg(long)]
+    /// Integrator: path, fc, fc-reflect, dct, lsq or bini (default: lsq with a mask, dct
+    /// without).
+    #[arg(long = "integrator", visible_alias = "method", value_name = "METHOD")]
     pub method: Option<String>,
     /// Output depth map (.npy); a .png preview is written next to it.
     #[arg(short, long)]

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 /// Arguments of `photostereo interreflect`.
 #[derive(clap::Args, Debug)]
 #[command(
-    after_help = "Example:\n  photostereo interreflect data/vgroove_interreflect -o out/vgroove --max-iter 10 --tol 0.01 --block 2\n\n\
+    after_help = "Example:\n  photostereo interreflect data/vgroove -o out/vgroove --max-iter 10 --tol 0.01 --block 2\n\n\
 The images must be linear and scaled so that a white Lambertian surface facing a unit light\n\
 reads 1 (the albedo enters the compensation I_direct = I_raw - albedo * K * I_raw). With a\n\
 meta.json holding \"scale\" (Mitsuba renders) the 16-bit images are rescaled automatically;\n\

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:\n  \
 photostereo lights data/chrome --chrome -o data/chrome/light_directions.txt\n  \
-photostereo lights data/matte_ball --matte --circle 102,102,100 -o lights.txt\n\n\
+photostereo lights data/matte_ball --matte -o lights.txt\n\n\
 SPHERE_DIR holds the K sphere images (DiLiGenT layout: filenames.txt or 001.png, 002.png, ...). \
 The sphere is found in the maximum of the images or, for a dark chrome sphere, from the edges \
 where its rim contrasts with what lies behind it; where the rim does not show at all the outline \
@@ -40,7 +40,7 @@ pub struct Args {
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_region)]
     sphere_region: Option<(usize, usize, usize, usize)>,
     /// Sphere mask (PNG/TIFF/.npy, non-zero = sphere); default SPHERE_DIR/mask.png if present.
-    #[arg(long, value_name = "MASK")]
+    #[arg(long = "sphere-mask", visible_alias = "mask", value_name = "MASK")]
     mask: Option<PathBuf>,
     /// Fit the circle to the mask's outline directly (do not look at the images).
     #[arg(long)]
@@ -87,6 +87,9 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             ..ChromeOptions::default()
         };
         let (lights, highlights) = lightcal::from_chrome_sphere(&data.stack, &c, &opts)?;
+        if let Some(w) = sphere::checks::check_mirror(&data.stack, &c).warning() {
+            eprintln!("warning: {w} (`lights --matte` for a matte sphere)");
+        }
         for (name, h) in data.stack.names.iter().zip(&highlights) {
             say(format!(
                 "  {name}: highlight at ({:.2}, {:.2}), {} px, peak {:.3}",

@@ -14,11 +14,11 @@ use std::path::{Path, PathBuf};
 /// Arguments of `photostereo normals`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:\n  \
-photostereo normals data/target --lut sphere.lut -o out\n  \
-photostereo normals data/target --lut diffuse.lut --lut specular.lut -o out\n  \
-photostereo normals data/target --lut sphere.lut --normalize -o out\n  \
-photostereo normals data/target --lambertian -o out\n  \
-photostereo normals data/target --lambertian --lights lights.txt -o out\n\n\
+photostereo normals data/vase --lut sphere.lut -o out/normals\n  \
+photostereo normals data/vase --lut matte.lut --lut sphere.lut -o out/two_tables\n  \
+photostereo normals data/vase --lut sphere.lut --normalize -o out/normalized\n  \
+photostereo normals data/matte_ball --lambertian -o out/lambertian\n  \
+photostereo normals data/matte_ball --lambertian --lights lights.txt -o out/lambertian\n\n\
 Writes normals.npy (float32 H×W×3), normals.png, confidence.npy (lookup: 1 = perfect match, \
 low where lights are shadowed or the match is poor), residual.npy, albedo.npy (--normalize or \
 --lambertian) and weights_1.npy, weights_2.npy, weights_sigma.npy (two tables: the mix of \
@@ -49,7 +49,12 @@ pub struct Args {
     split_specular: bool,
     /// Lookup method: refined (sub-pixel, shadow handling), nearest (best table
     /// entry) or idw (6 nearest entries weighted by inverse distance, the baseline).
-    #[arg(long, default_value = "refined", value_parser = ["refined", "nearest", "idw"])]
+    #[arg(
+        long = "lookup",
+        visible_alias = "method",
+        default_value = "refined",
+        value_parser = ["refined", "nearest", "idw"]
+    )]
     method: String,
     /// Lambertian least squares with the lights of TARGET_DIR/light_directions.txt
     /// instead of a lookup table (drops shadowed and highlight samples unless --plain).

@@ -28,10 +28,16 @@ use std::path::{Path, PathBuf};
 
 /// Arguments of `photostereo synth`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Examples:
-  photostereo synth --shape vase --material plastic -k 16 --size 256 --noise 0.01 -o data/vase
-  photostereo synth --shape bowl --material lambertian --albedo-texture -o data/bowl --calib-sphere 100
-  photostereo synth --material metal --calib-sphere 100 --bits 8 --exposure peak --blur 0.8 --black-level 0.03 -o data/camera")]
+#[command(
+    after_help = "Examples (these and the other subcommands' run in sequence from an empty folder: synth, \
+calibrate, lights, normals, integrate, eval, interreflect, run):
+  photostereo synth --shape vase --material plastic -k 16 --size 256 --noise 0.01 --calib-sphere 100 -o data/vase
+  photostereo synth --shape sphere --material metal --size 128 -o data/chrome
+  photostereo synth --shape sphere --material lambertian --size 128 -o data/matte_ball
+  photostereo synth --shape vgroove --material lambertian --size 64 --interreflections -o data/vgroove
+  photostereo synth --shape bowl --material lambertian --albedo-texture --size 128 -o data/bowl
+  photostereo synth --material metal --calib-sphere 100 --bits 8 --exposure peak --blur 0.8 --black-level 0.03 -o data/camera"
+)]
 pub struct Args {
     /// Shape: blob, sphere, vase, bowl or vgroove (scaled to the image size).
     #[arg(long, default_value = "blob")]
@@ -41,7 +47,12 @@ pub struct Args {
     #[arg(long, default_value = "plastic")]
     pub material: String,
     /// Number of lights, spread 15–60° from the view axis.
-    #[arg(short = 'k', long = "lights", default_value_t = 16)]
+    #[arg(
+        short = 'k',
+        long = "light-count",
+        visible_alias = "lights",
+        default_value_t = 16
+    )]
     pub lights: usize,
     /// Image width and height (pixels).
     #[arg(long, default_value_t = 256)]

@@ -1,15 +1,17 @@
-//! Every command the README shows and every `--help` example runs as shown (issue 15).
+//! Every command the README shows and every `--help` example runs as shown (issues 15, 29).
 //!
 //! The commands are extracted, not copied: the README's ```` ```sh ```` blocks, and the
-//! `Example:` / `Examples:` section of each subcommand's `--help` (the subcommands are read
-//! from `photostereo --help`). Each runs in a sandbox laid out like a fresh clone
-//! (`<sandbox>/repo` is the working directory, `<sandbox>/shared` the shared data) where
-//! small synthetic data were rendered first at the paths the examples name (`data/vase`,
-//! `data/sphere`, `sphere.lut`, `normals.npy`, `SPHERE_DIR`, ...). Each must exit 0 and write
-//! what its `-o` / `--mesh` names. `photostereo` and `cargo run --release --` run this
-//! build's executable; `scripts/test-all.sh` (the suite that runs this test) and
-//! `pip install ./crates/photostereo-py` (run by `scripts/test-all.sh`) are not run here, and
-//! a command of any other program fails the test until it is taught here.
+//! `Example:` / `Examples…:` section of each subcommand's `--help` (the subcommands are read
+//! from `photostereo --help`). The `--help` examples run **in sequence from an empty folder**
+//! (subcommands in the order of [`CHAIN`]): each uses only what an earlier example wrote, as
+//! a new user typing them one after the other would. The README's commands run in a sandbox
+//! laid out like a fresh clone (`<sandbox>/repo` is the working directory, `<sandbox>/shared`
+//! the shared data) where the folders its "your own data" lines name (`SPHERE_DIR`,
+//! `TARGET_DIR`) were rendered first. Each must exit 0 and write what its `-o` / `--mesh`
+//! names. `photostereo` and `cargo run --release --` run this build's executable;
+//! `scripts/test-all.sh` (the suite that runs this test) and `pip install
+//! ./crates/photostereo-py` (run by `scripts/test-all.sh`) are not run here, and a command
+//! of any other program fails the test until it is taught here.
 //!
 //! A command that reads `../shared` or `real/` (the real photographs) is skipped with a
 //! printed message when the shared folder is absent (see `shared_data`).
@@ -20,9 +22,6 @@ mod shared_data;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
-
-use photostereo::image::ImageStack;
-use photostereo::io;
 
 const BIN: &str = env!("CARGO_BIN_EXE_photostereo");
 
@@ -105,7 +104,7 @@ fn help_commands() -> Vec<(String, String)> {
         let help = help_of(&[&sub, "--help"]);
         let examples: Vec<String> = help
             .lines()
-            .skip_while(|l| !matches!(l.trim(), "Example:" | "Examples:"))
+            .skip_while(|l| !(l.trim().starts_with("Example") && l.trim().ends_with(':')))
             .skip(1)
             .take_while(|l| !l.trim().is_empty())
             .map(|l| l.trim().to_string())
@@ -133,190 +132,65 @@ fn run_ok(dir: &Path, args: &[&str]) {
     );
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        if e.file_type().unwrap().is_file() {
-            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
-        }
-    }
-}
-
-fn copy(dir: &Path, from: &str, to: &str) {
-    std::fs::copy(dir.join(from), dir.join(to))
-        .unwrap_or_else(|e| panic!("copy {from} to {to}: {e}"));
-}
-
-/// `data/scene`: a shiny sphere (r 80, centre (110, 120)) and a blob side by side in one
-/// 430 × 240 image under 16 lights, for `calibrate --sphere-region 10,20,200,200`.
-fn scene(repo: &Path) {
-    run_ok(
-        repo,
-        &[
-            "-q",
-            "synth",
-            "--shape",
-            "blob",
-            "-k",
-            "16",
-            "--size",
-            "200",
-            "--calib-sphere",
-            "80",
-            "-o",
-            "fx/blob",
-        ],
-    );
-    let load = |p: &str| io::load_dataset(&repo.join(p), &Default::default()).unwrap();
-    let (blob, sphere) = (load("fx/blob"), load("fx/blob/sphere"));
-    let (w, h, k) = (430, 240, blob.stack.k);
-    let mut s = ImageStack {
-        width: w,
-        height: h,
-        k,
-        data: vec![0.0; w * h * k],
-        names: blob.stack.names.clone(),
-    };
-    // the sphere's 164² image at (28, 38): its centre (82, 82) lands on (110, 120)
-    for (src, (x0, y0)) in [(&sphere.stack, (28, 38)), (&blob.stack, (230, 20))] {
-        for r in 0..src.height {
-            for c in 0..src.width {
-                let i = ((y0 + r) * w + x0 + c) * k;
-                s.data[i..i + k].copy_from_slice(src.pixel(r, c));
-            }
-        }
-    }
-    let lights = blob.lights.expect("synth writes light_directions.txt");
-    io::write_dataset(&repo.join("data/scene"), &s, &lights, None, 16).unwrap();
-}
-
-/// A sandbox like a fresh clone: `<dir>/repo` with the data the examples name, and
-/// `<dir>/shared` (a link to the shared data, when present). Returns `<dir>/repo`.
+/// An empty working folder `<dir>/repo` as a new user has it, beside `<dir>/shared` (a
+/// link to the shared data, when present). Returns `<dir>/repo`.
 fn sandbox(name: &str) -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("doc-examples-{name}"));
     let _ = std::fs::remove_dir_all(&dir);
     let repo = dir.join("repo");
-    std::fs::create_dir_all(repo.join("data")).unwrap();
+    std::fs::create_dir_all(&repo).unwrap();
     let shared = shared_data::root();
     if shared.is_dir() {
         let shared = shared.canonicalize().unwrap();
         std::os::unix::fs::symlink(&shared, dir.join("shared")).unwrap();
         std::os::unix::fs::symlink(shared.join("data/real"), repo.join("real")).unwrap();
     }
+    repo
+}
+
+/// The folders the README's "your own data" lines name: a shiny vase (`TARGET_DIR`) and
+/// its sphere (`SPHERE_DIR`, r 100), with the dataset's own lights.
+fn readme_fixtures(repo: &Path) {
     let t0 = Instant::now();
-    let synth = |args: &[&str]| {
-        let mut a = vec!["-q", "synth", "-k", "16"];
-        a.extend_from_slice(args);
-        run_ok(&repo, &a);
-    };
-    // a shiny vase and its sphere (r 100: circle 102, 102, 100 in its 204² images)
-    synth(&[
-        "--shape",
-        "vase",
-        "--material",
-        "plastic",
-        "--size",
-        "256",
-        "--noise",
-        "0.01",
-        "--calib-sphere",
-        "100",
-        "-o",
-        "fx/vase",
-    ]);
-    std::fs::rename(repo.join("fx/vase/sphere"), repo.join("data/sphere")).unwrap();
-    for d in ["data/vase", "data/target", "TARGET_DIR"] {
-        copy_dir(&repo.join("fx/vase"), &repo.join(d));
-    }
-    copy_dir(&repo.join("data/sphere"), &repo.join("SPHERE_DIR"));
-    // Lambertian (diffuse) and metal (specular) spheres under the same lights
-    synth(&[
-        "--shape",
-        "vase",
-        "--material",
-        "lambertian",
-        "--size",
-        "64",
-        "--calib-sphere",
-        "100",
-        "-o",
-        "fx/lam",
-    ]);
-    copy_dir(&repo.join("fx/lam/sphere"), &repo.join("data/matte_ball"));
-    synth(&[
-        "--shape",
-        "sphere",
-        "--material",
-        "metal",
-        "--size",
-        "128",
-        "-o",
-        "data/chrome",
-    ]);
-    synth(&[
-        "--shape",
-        "bowl",
-        "--material",
-        "lambertian",
-        "--size",
-        "64",
-        "--interreflections",
-        "-o",
-        "data/bowl",
-    ]);
-    synth(&[
-        "--shape",
-        "vgroove",
-        "--material",
-        "lambertian",
-        "--size",
-        "64",
-        "--interreflections",
-        "-o",
-        "data/vgroove_interreflect",
-    ]);
-    scene(&repo);
     run_ok(
-        &repo,
-        &["-q", "calibrate", "data/sphere", "-o", "sphere.lut"],
-    );
-    run_ok(
-        &repo,
-        &["-q", "calibrate", "fx/lam/sphere", "-o", "diffuse.lut"],
-    );
-    run_ok(
-        &repo,
-        &["-q", "calibrate", "data/chrome", "-o", "specular.lut"],
-    );
-    run_ok(
-        &repo,
+        repo,
         &[
             "-q",
-            "run",
-            "--sphere",
-            "data/sphere",
-            "data/target",
+            "synth",
+            "--shape",
+            "vase",
+            "--material",
+            "plastic",
+            "--size",
+            "128",
+            "--calib-sphere",
+            "60",
             "-o",
-            "out",
+            "TARGET_DIR",
         ],
     );
-    copy(&repo, "data/target/light_directions.txt", "lights.txt");
-    for f in ["normal_gt.npy", "depth_gt.npy", "mask.png"] {
-        copy(&repo, &format!("data/target/{f}"), &format!("data/{f}"));
-    }
-    for f in ["normals.npy", "confidence.npy"] {
-        copy(&repo, &format!("out/{f}"), f);
-    }
-    copy(&repo, "data/target/mask.png", "mask.png");
-    std::fs::write(repo.join("K.txt"), "600 0 127.5\n0 600 127.5\n0 0 1\n").unwrap();
+    std::fs::rename(repo.join("TARGET_DIR/sphere"), repo.join("SPHERE_DIR")).unwrap();
     eprintln!(
         "sandbox {}: data made in {:.1} s",
         repo.display(),
         t0.elapsed().as_secs_f64()
     );
-    repo
 }
+
+/// The order in which the subcommands' `--help` examples run: each uses only what the
+/// examples before it wrote (synth makes the data, calibrate the tables, ...).
+const CHAIN: [&str; 10] = [
+    "synth",
+    "calibrate",
+    "lights",
+    "normals",
+    "integrate",
+    "eval",
+    "interreflect",
+    "run",
+    "demo",
+    "bench",
+];
 
 /// The arguments of `line` for this build's executable, or why it is not run here.
 fn photostereo_args(line: &str) -> Result<Vec<String>, String> {
@@ -401,18 +275,31 @@ fn readme_commands_run_as_shown() {
     // measured: 11 command lines (demo, test-all.sh, six of the quick start, three runs)
     assert!(lines.len() >= 10, "README commands: {lines:?}");
     let repo = sandbox("readme");
+    readme_fixtures(&repo);
     for line in &lines {
         run_example("readme_commands_run_as_shown", &repo, line);
     }
 }
 
 #[test]
-fn help_examples_run_as_shown() {
+fn help_examples_run_in_sequence_from_an_empty_folder() {
     let examples = help_commands();
-    // measured: 24 examples over 10 subcommands
-    assert!(examples.len() >= 20, "help examples: {examples:?}");
+    // measured: 31 examples over 10 subcommands
+    assert!(examples.len() >= 25, "help examples: {examples:?}");
+    for (sub, _) in &examples {
+        assert!(
+            CHAIN.contains(&sub.as_str()),
+            "`{sub}` is not in CHAIN: place it"
+        );
+    }
     let repo = sandbox("help");
-    for (_, line) in &examples {
-        run_example("help_examples_run_as_shown", &repo, line);
+    for sub in CHAIN {
+        for (_, line) in examples.iter().filter(|(s, _)| s == sub) {
+            run_example(
+                "help_examples_run_in_sequence_from_an_empty_folder",
+                &repo,
+                line,
+            );
+        }
     }
 }

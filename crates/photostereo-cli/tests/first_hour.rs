@@ -203,7 +203,17 @@ fn chrome_run_saves_lights_overlay_and_report_pictures() {
         !figures.keys().any(|k| k.contains("concavity")),
         "{figures:?}"
     );
-    assert_eq!(j["warnings"].as_array().map(Vec::len), Some(0));
+    // no image-scale warning without interreflection removal; the one warning is the
+    // spatial stage's (measured 2026-12-03: 72.6% of the buddha's normals decided by their
+    // neighbours, which issue 29 asks to be said)
+    let warnings = j["warnings"].as_array().unwrap();
+    assert!(
+        warnings.iter().all(|w| w
+            .as_str()
+            .unwrap()
+            .starts_with("most pixels decided by their neighbours")),
+        "{warnings:?}"
+    );
     // The files are the report's pictures.
     use photostereo::report::raster;
     let mask = photostereo::io::read_mask(&buddha.join("mask.png")).unwrap();

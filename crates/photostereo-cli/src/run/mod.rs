@@ -5,7 +5,8 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use photostereo::{integrate, pipeline};
+use photostereo::sphere::Circle;
+use photostereo::{integrate, io, pipeline, Error};
 
 use crate::progress::Bar;
 use crate::Global;
@@ -13,20 +14,41 @@ use crate::Global;
 /// Arguments of `photostereo run`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:\n  \
-    photostereo run --sphere data/sphere data/vase -o out/vase\n  \
-    photostereo run --chrome real/chrome real/buddha -o out/buddha\n  \
-    photostereo run --lambertian --interreflections data/bowl -o out/bowl")]
+    photostereo run --sphere data/vase/sphere data/vase -o out/vase\n  \
+    photostereo run --lut sphere.lut --normalize data/vase -o out/vase_lut\n  \
+    photostereo run --sphere data/vase/sphere --circle 102,102,100 data/vase -o out/vase_circle\n  \
+    photostereo run --chrome data/chrome data/matte_ball -o out/matte_ball\n  \
+    photostereo run --lambertian --interreflections data/vgroove -o out/vgroove_run")]
 pub struct Args {
     /// Target dataset directory (DiLiGenT layout: images, optional filenames.txt,
     /// light_directions.txt, light_intensities.txt, mask.png).
     pub target: PathBuf,
     /// Output directory (created).
-    #[arg(short, long)]
+    #[arg(short, long = "output", visible_alias = "out", value_name = "OUT_DIR")]
     pub out: PathBuf,
     /// Calibration sphere dataset of the same material under the same lights:
     /// calibration-based photometric stereo (lookup table).
-    #[arg(long, conflicts_with_all = ["lambertian", "chrome"])]
+    #[arg(long, conflicts_with_all = ["lambertian", "chrome", "lut"])]
     pub sphere: Option<PathBuf>,
+    /// Use this circle for the sphere instead of finding it (as `calibrate --circle`):
+    /// centre x (along columns), centre y (along rows) and radius, in pixels.
+    #[arg(long, value_name = "CX,CY,R", requires = "sphere", value_parser = crate::lights::parse_circle)]
+    pub circle: Option<Circle>,
+    /// Search the sphere only in this window of its images (as `calibrate
+    /// --sphere-region`): left column, top row, width, height.
+    #[arg(long, value_name = "X,Y,W,H", requires = "sphere", value_parser = crate::lights::parse_region)]
+    pub sphere_region: Option<(usize, usize, usize, usize)>,
+    /// Search the sphere only inside this mask (PNG/TIFF/.npy, non-zero = sphere) instead
+    /// of the sphere folder's mask.png (as `calibrate --mask`).
+    #[arg(long, value_name = "MASK", requires = "sphere")]
+    pub sphere_mask: Option<PathBuf>,
+    /// A lookup table from `photostereo calibrate` instead of a sphere folder.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["lambertian", "chrome"])]
+    pub lut: Option<PathBuf>,
+    /// Match brightness-normalised tuples (the target's albedo differs from the
+    /// sphere's, as `normals --normalize`); albedo.npy is then relative to the sphere's.
+    #[arg(long, conflicts_with = "lambertian")]
+    pub normalize: bool,
     /// Lambertian photometric stereo with known lights (from the dataset's
     /// light_directions.txt, --lights or --chrome).
     #[arg(long)]
@@ -51,9 +73,9 @@ pub struct Args {
     /// else 1 (calibrated light_intensities.txt do the same job).
     #[arg(long, allow_negative_numbers = true)]
     pub image_scale: Option<f32>,
-    /// Integrator: path, fc, fc-reflect, dct, lsq (default: dct on a full rectangle,
-    /// lsq with a mask).
-    #[arg(long)]
+    /// Integrator: path, fc, fc-reflect, dct, lsq, bini (default: dct on a full
+    /// rectangle, lsq with a mask, then bini where lsq leaves depth jumps).
+    #[arg(long = "integrator", visible_alias = "method", value_name = "METHOD")]
     pub method: Option<String>,
     /// Mask file instead of the dataset's mask.png.
     #[arg(long)]
@@ -76,17 +98,55 @@ pub struct Args {
 pub fn run(mut args: Args, global: Global) -> Result<()> {
     crate::check_output_dir(&args.out)?;
     args.lambertian |= args.chrome.is_some();
-    let inputs = pipeline::Inputs {
+    let inputs = inputs(&args)?;
+    let opts = options(&args)?;
+    let done = pipeline::run(&inputs, &args.out, &opts, &Bar::new(global.quiet))
+        .map_err(|e| with_run_advice(e, &args))?;
+    if !global.quiet {
+        for (k, v) in &done.output.figures {
+            println!("{k:>36}: {v}");
+        }
+        println!("report: {}", done.report.display());
+    }
+    let stale = done.json["stale_removed"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    if !stale.is_empty() && !global.quiet {
+        let names: Vec<&str> = stale.iter().filter_map(|v| v.as_str()).collect();
+        println!(
+            "removed from {} the files of an earlier run that this run does not write: {}",
+            args.out.display(),
+            names.join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// Where the target, the sphere (or table) and the lights come from.
+fn inputs(args: &Args) -> Result<pipeline::Inputs> {
+    let calibration = match &args.lut {
+        Some(path) => Some(pipeline::Calibration {
+            table: io::read_table(path)?,
+            detection: None,
+        }),
+        None => None,
+    };
+    Ok(pipeline::Inputs {
         target: args.target.clone(),
         sphere: args.sphere.clone(),
-        calibration: None,
+        calibration,
         lambertian: args.lambertian,
         lights: args.lights.clone(),
         chrome: args.chrome.clone(),
         mask: args.mask.clone(),
         image_scale: args.image_scale,
-    };
-    let opts = pipeline::Options {
+    })
+}
+
+/// The pipeline's settings from the flags.
+fn options(args: &Args) -> Result<pipeline::Options> {
+    let mut opts = pipeline::Options {
         method: args
             .method
             .as_deref()
@@ -95,21 +155,30 @@ pub fn run(mut args: Args, global: Global) -> Result<()> {
         interreflections: args.interreflections,
         ..Default::default()
     };
-    let opts = pipeline::Options {
-        spatial: opts.spatial.filter(|_| !args.no_spatial),
-        ..opts
-    };
-    let mut opts = opts;
+    if args.no_spatial {
+        opts.spatial = None;
+    }
     if let Some(sp) = opts.spatial.as_mut().filter(|_| args.no_contour) {
         sp.contour_sigma = None;
     }
     opts.nik.radiosity.block = args.block.unwrap_or(0);
-    let done = pipeline::run(&inputs, &args.out, &opts, &Bar::new(global.quiet))?;
-    if !global.quiet {
-        for (k, v) in &done.output.figures {
-            println!("{k:>36}: {v}");
-        }
-        println!("report: {}", done.report.display());
+    opts.lookup.normalize = args.normalize;
+    opts.detect.circle = args.circle;
+    opts.detect.region = args.sphere_region;
+    if let Some(path) = &args.sphere_mask {
+        opts.detect.mask = Some(io::read_mask_any(path)?);
     }
-    Ok(())
+    Ok(opts)
+}
+
+/// A sphere that is not found: the library's advice names `calibrate`'s ways to help it;
+/// say how `run` spells them (its `--mask` is the target's).
+fn with_run_advice(e: Error, args: &Args) -> anyhow::Error {
+    if args.sphere.is_some() && matches!(e.root(), Error::SphereNotFound { .. }) {
+        return anyhow::anyhow!(
+            "{e}\nwith `run`: --sphere-region X,Y,W,H, --sphere-mask MASK (--mask is the \
+             target's) or --circle CX,CY,R; or --lut FILE with a table from `photostereo calibrate`"
+        );
+    }
+    e.into()
 }

@@ -61,7 +61,10 @@ pub use raster::{
     read_gray_image, read_mask, read_mask_any, read_normals_png, write_colormap_png,
     write_depth_png, write_gray_png, write_gray_png_range, write_mask_png, write_normals_png,
 };
-pub use run::{dataset_name, read_ground_truth, read_meta_scale, read_table, write_table};
+pub use run::{
+    dataset_name, previous_run_files, read_ground_truth, read_meta_scale, read_table, remove_files,
+    write_table, RUN_FILES,
+};
 
 use crate::error::{Error, Result};
 use std::fs::{self, File, OpenOptions};

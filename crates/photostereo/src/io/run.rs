@@ -65,3 +65,64 @@ pub fn dataset_name(dir: &Path) -> String {
             |n| n.to_string_lossy().into_owned(),
         )
 }
+
+/// Every file name a `run` can write into its output directory. Only these are ever
+/// removed as stale ([`previous_run_files`], [`remove_files`]): an output directory may
+/// hold the user's own files too.
+pub const RUN_FILES: &[&str] = &[
+    "normals.npy",
+    "normals.png",
+    "albedo.npy",
+    "albedo.png",
+    "confidence.npy",
+    "confidence.png",
+    "normals_sigma.npy",
+    "normals_sigma.png",
+    "own_share.npy",
+    "depth.npy",
+    "depth.png",
+    "mesh.ply",
+    "lights.txt",
+    "chrome_overlay.png",
+    "sphere_overlay.png",
+    "convergence.csv",
+    "profiles.png",
+    "convergence.png",
+    "report.html",
+    "run.json",
+];
+
+/// The files an earlier run wrote into `out`, as its `run.json` lists them (`files`);
+/// for a `run.json` from before that list, every name of [`RUN_FILES`]. Empty when `out`
+/// has no readable `run.json` (not a run's directory). Only names of [`RUN_FILES`] count.
+pub fn previous_run_files(out: &Path) -> Vec<String> {
+    let Ok(text) = super::read_text(&out.join("run.json")) else {
+        return Vec::new();
+    };
+    let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else {
+        return Vec::new();
+    };
+    let listed: Option<Vec<&str>> = v
+        .get("files")
+        .and_then(|f| f.as_array())
+        .map(|a| a.iter().filter_map(|s| s.as_str()).collect());
+    RUN_FILES
+        .iter()
+        .filter(|n| listed.as_ref().is_none_or(|l| l.contains(n)))
+        .map(|n| n.to_string())
+        .collect()
+}
+
+/// Remove the files `names` (of [`RUN_FILES`] only) from `out`; returns those that were
+/// there and are gone. A name that is not a file there is skipped.
+pub fn remove_files(out: &Path, names: &[String]) -> Result<Vec<String>> {
+    let mut removed = Vec::new();
+    for name in names.iter().filter(|n| RUN_FILES.contains(&n.as_str())) {
+        let path = out.join(name);
+        if path.is_file() {
+            std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?;
+            removed.push(name.clone());
+        }
+    }
+    Ok(removed)
+}

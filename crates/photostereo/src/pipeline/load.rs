@@ -10,6 +10,7 @@ use super::{Calibration, Job, Normals, Options, Output, Titles, Truth};
 use crate::error::{Error, Result, Setting};
 use crate::image::{Lights, Mask};
 use crate::progress::Progress;
+use crate::sphere::checks::MirrorCheck;
 use crate::{io, lightcal, sphere};
 
 /// The files of a run: the target dataset and where its normals come from. Exactly one
@@ -55,6 +56,9 @@ pub struct Loaded {
     pub image_scale: Option<(f32, &'static str)>,
     /// The chrome sphere the lights came from.
     pub chrome: Option<sphere::Detection>,
+    /// Warnings about the inputs found while loading (a "chrome" sphere without mirror
+    /// highlights); [`run`] adds them to the output's.
+    pub warnings: Vec<String>,
 }
 
 /// A finished run.
@@ -96,7 +100,7 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         .mask
         .clone()
         .unwrap_or_else(|| Mask::full(target.stack.width, target.stack.height));
-    let mut chrome = None;
+    let (mut chrome, mut warnings) = (None, Vec::new());
     let normals = if let Some(cal) = &inputs.calibration {
         Normals::Calibrated(Box::new(cal.clone()))
     } else if let Some(dir) = &inputs.sphere {
@@ -121,7 +125,10 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
     } else {
         let t = Instant::now();
         let (lights, det) = lights(inputs, target.lights.clone(), target.stack.k, progress)?;
-        chrome = det;
+        if let Some((det, mirror)) = det {
+            warnings.extend(mirror.warning());
+            chrome = Some(det);
+        }
         stages.push(("lights".to_string(), t.elapsed().as_secs_f64()));
         Normals::Lambertian { lights }
     };
@@ -146,6 +153,7 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         scale_known,
         image_scale,
         chrome,
+        warnings,
     })
 }
 
@@ -161,14 +169,15 @@ pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress)
             .push(("image scale (images ×)".into(), format!("{scale} ({from})")));
     }
     output.chrome = loaded.chrome.clone();
-    let report = super::write_outputs(out, &loaded.titles, &loaded.job, &output, &loaded.stages)?;
-    let mut stages = loaded.stages.clone();
-    stages.extend(output.stages.iter().cloned());
-    let json = super::run_json(&loaded.titles.title, &output, &stages);
+    for w in &loaded.warnings {
+        progress.note(&format!("warning: {w}"));
+    }
+    output.warnings.extend(loaded.warnings.iter().cloned());
+    let written = super::write_outputs(out, &loaded.titles, &loaded.job, &output, &loaded.stages)?;
     Ok(Run {
         output,
-        report,
-        json,
+        report: written.report,
+        json: written.json,
     })
 }
 
@@ -228,13 +237,13 @@ pub fn scale_is_known(dir: &Path, given: Option<f32>, use_meta: bool) -> Result<
 }
 
 /// Light directions for `k` images: the `lights` file, the `chrome` calibration (with the
-/// sphere's detection), or the dataset's own.
+/// sphere's detection and its mirror check), or the dataset's own.
 fn lights(
     inputs: &Inputs,
     from_dataset: Option<Lights>,
     k: usize,
     progress: &dyn Progress,
-) -> Result<(Lights, Option<sphere::Detection>)> {
+) -> Result<(Lights, Option<(sphere::Detection, MirrorCheck)>)> {
     if let Some(file) = &inputs.lights {
         if !file.is_file() {
             return Err(Error::setting(
@@ -261,12 +270,12 @@ fn lights(
         return Ok((lights, None));
     }
     if let Some(dir) = &inputs.chrome {
-        let (lights, det) = chrome_lights(dir)?;
+        let (lights, det, mirror) = chrome_lights(dir)?;
         progress.note(&format!(
             "lights calibrated from the chrome sphere {}",
             dir.display()
         ));
-        return Ok((lights, Some(det)));
+        return Ok((lights, Some((det, mirror))));
     }
     from_dataset.map(|l| (l, None)).ok_or_else(|| {
         Error::setting(
@@ -277,8 +286,9 @@ fn lights(
     })
 }
 
-/// Lights from the highlights of a chrome sphere dataset, and the sphere's detection.
-fn chrome_lights(dir: &Path) -> Result<(Lights, sphere::Detection)> {
+/// Lights from the highlights of a chrome sphere dataset, the sphere's detection, and
+/// whether its highlights look like a mirror's.
+fn chrome_lights(dir: &Path) -> Result<(Lights, sphere::Detection, MirrorCheck)> {
     let chrome = io::load_dataset(dir, &io::LoadOptions::default())?;
     let det = sphere::detect(
         &chrome.stack,
@@ -293,7 +303,8 @@ fn chrome_lights(dir: &Path) -> Result<(Lights, sphere::Detection)> {
     .map_err(|e| e.context(format!("finding the chrome sphere in {}", dir.display())))?;
     let (lights, _) = lightcal::from_chrome_sphere(&chrome.stack, &det.circle, &Default::default())
         .map_err(|e| e.context(format!("calibrating the lights from {}", dir.display())))?;
-    Ok((lights, det))
+    let mirror = sphere::checks::check_mirror(&chrome.stack, &det.circle);
+    Ok((lights, det, mirror))
 }
 
 fn subtitle(inputs: &Inputs, opts: &Options) -> String {

@@ -32,6 +32,7 @@
 //! one new field of [`Options`] (with its default in `Options::default`) and adds its
 //! rows to [`Output::figures`].
 
+mod checks;
 mod figures;
 mod load;
 mod outputs;
@@ -44,9 +45,10 @@ use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::Progress;
 use crate::{eval, integrate, interreflect, lambertian, lut, mesh, spatial, sphere};
 
+pub use checks::NEIGHBOURS_WARN;
 pub use figures::{depth_range, masked_mean, run_json, warnings, LOW_CONFIDENCE};
 pub use load::{load, radiance_scale, run, scale_is_known, Inputs, Loaded, Run};
-pub use outputs::{build_report, write_outputs, Titles};
+pub use outputs::{build_report, write_outputs, Titles, Written};
 
 /// A calibration made beforehand: the lookup table and, when known, the sphere
 /// detection it was built from (for the report's circle figure and overlay).
@@ -105,8 +107,8 @@ pub struct Options {
     pub method: Option<integrate::Method>,
     /// Remove interreflections (Nayar–Ikeuchi–Kanade iteration; Lambertian jobs only).
     pub interreflections: bool,
-    /// Settings of the sphere detection ([`Normals::Lookup`]); its `mask` is replaced
-    /// by the job's `sphere_mask`.
+    /// Settings of the sphere detection ([`Normals::Lookup`]); when its `mask` is `None`
+    /// the job's `sphere_mask` (the sphere folder's `mask.png`) is used.
     pub detect: sphere::DetectOptions,
     /// Settings of the lookup-table build ([`Normals::Lookup`]).
     pub build: lut::BuildOptions,
@@ -276,7 +278,11 @@ pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Outpu
         }
     }
     figures.extend(figures::picture_rows(job, est.albedo.as_ref(), &depth));
-    let warnings = figures::warnings(job, est.confidence.as_ref(), opts);
+    let mut warnings = figures::warnings(job, est.confidence.as_ref(), opts);
+    let stats = est.spatial.as_ref().and_then(|s| s.stats.as_ref());
+    let (more, rows) = checks::warnings(job, circle.as_ref(), stats, opts);
+    warnings.extend(more);
+    figures.extend(rows);
     for w in &warnings {
         progress.note(&format!("warning: {w}"));
     }

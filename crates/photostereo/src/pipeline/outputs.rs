@@ -3,6 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
+use serde_json::{json, Value};
+
 use super::figures::run_json;
 use super::{Job, Normals, Output};
 use crate::error::Result;
@@ -18,79 +20,122 @@ pub struct Titles {
     pub subtitle: String,
 }
 
+/// What [`write_outputs`] did: the report's path and what `run.json` holds, with the
+/// names of the files written (`files`) and of the stale ones removed (`stale_removed`).
+#[derive(Clone, Debug)]
+pub struct Written {
+    /// The path of `report.html`.
+    pub report: PathBuf,
+    /// The contents of `run.json`.
+    pub json: Value,
+}
+
 /// Write every product of `p` into the directory `out` (created): `normals.npy/png`,
 /// `albedo.npy/png`, `confidence.npy/png`, `normals_sigma.npy/png` and `own_share.npy`
 /// (spatial stage), `depth.npy/png`, `mesh.ply`,
 /// `sphere_overlay.png`, `lights.txt` (Lambertian), `chrome_overlay.png` (lights from a
 /// chrome sphere), `convergence.csv` and plots (those the run has), `report.html` and
 /// `run.json`. `albedo.png` and `depth.png` are the report's pictures
-/// ([`raster::albedo_picture`], [`raster::depth_picture`]; their ranges are figure rows). `extra_stages` (e.g. loading) come before the pipeline's own stages
-/// in the timings. Returns the path of the report.
+/// ([`raster::albedo_picture`], [`raster::depth_picture`]; their ranges are figure rows).
+/// `extra_stages` (e.g. loading) come before the pipeline's own stages in the timings.
+///
+/// When `out` holds an earlier run's outputs, those this run does not write (another
+/// mode's `confidence.*`, `sphere_overlay.png`, ...) are removed once the new ones are
+/// written, so that no file of the folder belongs to another run; `run.json` lists the
+/// files written (`files`) and those removed (`stale_removed`).
 pub fn write_outputs(
     out: &Path,
     titles: &Titles,
     job: &Job,
     p: &Output,
     extra_stages: &[(String, f64)],
-) -> Result<PathBuf> {
-    write_maps(out, job, p)?;
+) -> Result<Written> {
+    let earlier = io::previous_run_files(out);
+    let mut files = write_maps(out, job, p)?;
+    files.extend(["report.html", "run.json"]);
+    let stale: Vec<String> = earlier
+        .into_iter()
+        .filter(|f| !files.contains(&f.as_str()))
+        .collect();
     let mut stages: Vec<(String, f64)> = extra_stages.to_vec();
     stages.extend(p.stages.iter().cloned());
-    let report_path = out.join("report.html");
+    let report = out.join("report.html");
     let html = build_report(titles, job, p, &stages)?;
-    io::write_text(&report_path, &html)?;
-    io::write_text(
-        &out.join("run.json"),
-        &run_json(&titles.title, p, &stages).to_string(),
-    )?;
-    Ok(report_path)
+    io::write_text(&report, &html)?;
+    let mut json = run_json(&titles.title, p, &stages);
+    json["files"] = json!(files);
+    json["stale_removed"] = json!(stale);
+    io::write_text(&out.join("run.json"), &json.to_string())?;
+    io::remove_files(out, &stale)?;
+    Ok(Written { report, json })
 }
 
-fn write_maps(out: &Path, job: &Job, p: &Output) -> Result<()> {
+/// Write the maps, mesh and pictures of `p`; returns the names of the files written.
+fn write_maps(out: &Path, job: &Job, p: &Output) -> Result<Vec<&'static str>> {
     let mask = &job.mask;
+    let mut files = vec!["normals.npy", "normals.png"];
     io::write_normals(&out.join("normals.npy"), &p.normals)?;
     io::write_normals_png(&out.join("normals.png"), &p.normals, Some(mask))?;
     if let Some(a) = &p.albedo {
         io::write_gray_npy(&out.join("albedo.npy"), a)?;
         let (rgb, _) = raster::albedo_picture(a, Some(mask));
         io::write_bytes(&out.join("albedo.png"), &raster::encode_png(&rgb)?)?;
+        files.extend(["albedo.npy", "albedo.png"]);
     }
     if let Some(c) = &p.confidence {
         io::write_gray_npy(&out.join("confidence.npy"), c)?;
         io::write_gray_png(&out.join("confidence.png"), c)?;
+        files.extend(["confidence.npy", "confidence.png"]);
     }
     if let Some(sigma) = &p.normals_sigma {
         io::write_gray_npy(&out.join("normals_sigma.npy"), sigma)?;
         // false colour over 0–10°, as `photostereo normals` writes it
         let png = out.join("normals_sigma.png");
         io::write_colormap_png(&png, sigma, Some(mask), Some((0.0, 10.0)))?;
+        files.extend(["normals_sigma.npy", "normals_sigma.png"]);
     }
     if let Some(s) = &p.own_share {
         io::write_gray_npy(&out.join("own_share.npy"), s)?;
+        files.push("own_share.npy");
     }
     io::write_gray_npy(&out.join("depth.npy"), &p.depth)?;
     let (rgb, _) = raster::depth_picture(&p.depth, Some(mask));
     io::write_bytes(&out.join("depth.png"), &raster::encode_png(&rgb)?)?;
-    if let Normals::Lambertian { lights } = &job.normals {
-        io::write_light_directions(&out.join("lights.txt"), lights)?;
-    }
-    if let Some(det) = &p.chrome {
-        io::write_bytes(&out.join("chrome_overlay.png"), &overlay_png(det)?)?;
-    }
     io::write_atomic(&out.join("mesh.ply"), |w| {
         mesh::write_ply_binary(&p.mesh, &mut *w)
     })?;
+    files.extend(["depth.npy", "depth.png", "mesh.ply"]);
+    files.extend(write_sides(out, job, p)?);
+    Ok(files)
+}
+
+/// The lights, overlays and interreflection files of `p`; returns their names.
+fn write_sides(out: &Path, job: &Job, p: &Output) -> Result<Vec<&'static str>> {
+    let mut files = Vec::new();
+    if let Normals::Lambertian { lights } = &job.normals {
+        io::write_light_directions(&out.join("lights.txt"), lights)?;
+        files.push("lights.txt");
+    }
+    if let Some(det) = &p.chrome {
+        io::write_bytes(&out.join("chrome_overlay.png"), &overlay_png(det)?)?;
+        files.push("chrome_overlay.png");
+    }
     if let Some(det) = &p.circle {
-        let png = overlay_png(det)?;
-        io::write_bytes(&out.join("sphere_overlay.png"), &png)?;
+        io::write_bytes(&out.join("sphere_overlay.png"), &overlay_png(det)?)?;
+        files.push("sphere_overlay.png");
     }
     if let Some(ir) = &p.interreflections {
         io::write_text(&out.join("convergence.csv"), &ir.csv)?;
+        files.push("convergence.csv");
         for (name, png) in &ir.plots {
             io::write_bytes(&out.join(name), png)?;
+            // the plots are named by the pipeline; list them by their RUN_FILES name
+            if let Some(n) = io::RUN_FILES.iter().find(|n| **n == name.as_str()) {
+                files.push(n);
+            }
         }
     }
-    Ok(())
+    Ok(files)
 }
 
 fn overlay_png(det: &sphere::Detection) -> Result<Vec<u8>> {

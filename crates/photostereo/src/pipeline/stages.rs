@@ -73,14 +73,15 @@ pub(super) fn normals(
     })
 }
 
-/// The sphere detection of a lookup job (inside `sphere_mask` when given).
+/// The sphere detection of a lookup job: inside `opts.detect.mask` when given, else
+/// inside `sphere_mask` (the sphere folder's `mask.png`) when there is one.
 pub(super) fn detect(
     stack: &ImageStack,
     sphere_mask: Option<Mask>,
     opts: &Options,
 ) -> Result<sphere::Detection> {
     let d = sphere::DetectOptions {
-        mask: sphere_mask,
+        mask: opts.detect.mask.clone().or(sphere_mask),
         ..opts.detect.clone()
     };
     sphere::detect(stack, &d)

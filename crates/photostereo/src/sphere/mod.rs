@@ -75,6 +75,7 @@
 //! IEEE SMC 1979; I. Kåsa, "A circle fitting procedure and its error analysis",
 //! IEEE TIM 1976; N. Chernov, *Circular and Linear Regression*, CRC 2010.
 
+pub mod checks;
 mod contrast;
 mod detect;
 mod edges;

@@ -1,0 +1,323 @@
+//! No silent wrong answers (issue 29): each mistake below used to exit 0 without a word.
+//! A circle a few pixels off given to `calibrate` or `run`; the target given as the
+//! sphere; a matte sphere given as `--chrome`; an output folder reused by a run of another
+//! mode; and what `run` accepts of its own advice (`--circle`, `--sphere-region`,
+//! `--sphere-mask`, `--lut`, `--normalize`). Each case is checked on the terminal and in
+//! `run.json`, beside the same command on correct input, which must stay silent.
+
+#[path = "../../photostereo/tests/shared_data/mod.rs"]
+mod shared_data;
+
+use std::path::{Path, PathBuf};
+
+use serde_json::Value;
+
+mod common;
+use common::{photostereo, photostereo_ok, s};
+
+fn tmp(name: &str) -> PathBuf {
+    common::scratch("warnings-cli", name)
+}
+
+/// A shiny vase and its sphere (r 100: circle 102, 102, 100 in its 204² images), and a
+/// matte (Lambertian) sphere under the same 16 lights.
+fn data(root: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let vase = root.join("vase");
+    let matte = root.join("matte");
+    photostereo_ok(&[
+        "-q",
+        "synth",
+        "--shape",
+        "vase",
+        "--material",
+        "plastic",
+        "--size",
+        "128",
+        "--calib-sphere",
+        "100",
+        "-o",
+        s(&vase),
+    ]);
+    photostereo_ok(&[
+        "-q",
+        "synth",
+        "--shape",
+        "sphere",
+        "--material",
+        "lambertian",
+        "--size",
+        "128",
+        "-o",
+        s(&matte),
+    ]);
+    (vase.clone(), vase.join("sphere"), matte)
+}
+
+fn run_json(out: &Path) -> Value {
+    let text = std::fs::read_to_string(out.join("run.json")).expect("read run.json");
+    serde_json::from_str(&text).expect("run.json is JSON")
+}
+
+fn warnings(out: &Path) -> Vec<String> {
+    run_json(out)["warnings"]
+        .as_array()
+        .expect("warnings list")
+        .iter()
+        .map(|w| w.as_str().unwrap().to_string())
+        .collect()
+}
+
+fn has(ws: &[String], what: &str) -> bool {
+    ws.iter().any(|w| w.contains(what))
+}
+
+const OFF_RIM: &str = "the given circle does not follow the sphere's rim";
+
+/// `calibrate --circle`: the true circle is silent; 3, 5 and 20 px off (centre moved right
+/// and radius shrunk by as much, to stay inside the 204² image) warn, and the normal shift
+/// the warning states grows with the offset.
+#[test]
+fn calibrate_warns_on_a_circle_a_few_pixels_off() {
+    let root = tmp("calibrate-circle");
+    let (_, sphere, _) = data(&root);
+    let calibrate = |off: f64| {
+        let lut = root.join(format!("c{off}.lut"));
+        let circle = format!("{},102,{}", 102.0 + off, 100.0 - off);
+        let (ok, out, err) =
+            photostereo(&["calibrate", s(&sphere), "--circle", &circle, "-o", s(&lut)]);
+        assert!(ok, "calibrate --circle {circle} failed: {err}");
+        assert!(
+            out.contains("given circle against the images' rim"),
+            "{out}"
+        );
+        err
+    };
+    assert!(!calibrate(0.0).contains(OFF_RIM), "the true circle warned");
+    let mut shifts = Vec::new();
+    for off in [3.0, 5.0, 20.0] {
+        let err = calibrate(off);
+        let line = err
+            .lines()
+            .find(|l| l.contains(OFF_RIM))
+            .unwrap_or_else(|| panic!("{off} px off: no warning in\n{err}"));
+        let at = line.find("° off on average").expect("the normal shift");
+        let num: String = line[..at]
+            .chars()
+            .rev()
+            .take_while(|c| c.is_ascii_digit() || *c == '.')
+            .collect::<String>()
+            .chars()
+            .rev()
+            .collect();
+        shifts.push(num.parse::<f64>().unwrap());
+    }
+    println!("normal shift at 3 / 5 / 20 px: {shifts:?} deg");
+    assert!(shifts[0] < shifts[1] && shifts[1] < shifts[2], "{shifts:?}");
+}
+
+/// The issue's case on the shared Mitsuba sphere: 148,128,100 (true 128,128,100).
+#[test]
+fn calibrate_warns_on_the_shared_sphere_20_px_off() {
+    let test = "calibrate_warns_on_the_shared_sphere_20_px_off";
+    let Some(sphere) = shared_data::path(test, "data/calib_roughplastic") else {
+        return;
+    };
+    let out = tmp("shared-circle");
+    for (circle, warns) in [
+        ("128,128,100", false),
+        ("131,128,100", true),
+        ("148,128,100", true),
+    ] {
+        let lut = out.join(format!("{}.lut", circle.replace(',', "_")));
+        let (ok, _, err) =
+            photostereo(&["calibrate", s(&sphere), "--circle", circle, "-o", s(&lut)]);
+        assert!(ok, "{err}");
+        assert_eq!(err.contains(OFF_RIM), warns, "--circle {circle}: {err}");
+    }
+}
+
+/// `run` takes what its sphere errors recommend, and a circle 3 px off warns in run.json.
+#[test]
+fn run_takes_the_sphere_flags_and_warns_in_run_json() {
+    let root = tmp("run-flags");
+    let (vase, sphere, _) = data(&root);
+    let out = |n: &str| root.join(n);
+    photostereo_ok(&[
+        "-q",
+        "run",
+        "--sphere",
+        s(&sphere),
+        "--circle",
+        "102,102,100",
+        s(&vase),
+        "-o",
+        s(&out("true")),
+    ]);
+    assert!(
+        !has(&warnings(&out("true")), OFF_RIM),
+        "{:?}",
+        warnings(&out("true"))
+    );
+    photostereo_ok(&[
+        "-q",
+        "run",
+        "--sphere",
+        s(&sphere),
+        "--circle",
+        "105,102,97",
+        s(&vase),
+        "-o",
+        s(&out("off")),
+    ]);
+    assert!(
+        has(&warnings(&out("off")), OFF_RIM),
+        "{:?}",
+        warnings(&out("off"))
+    );
+    // a window and a mask for the search, a table made before, the albedo option
+    photostereo_ok(&[
+        "-q",
+        "run",
+        "--sphere",
+        s(&sphere),
+        "--sphere-region",
+        "0,0,204,204",
+        "--sphere-mask",
+        s(&sphere.join("mask.png")),
+        s(&vase),
+        "-o",
+        s(&out("region")),
+    ]);
+    let lut = root.join("sphere.lut");
+    photostereo_ok(&["-q", "calibrate", s(&sphere), "-o", s(&lut)]);
+    photostereo_ok(&[
+        "-q",
+        "run",
+        "--lut",
+        s(&lut),
+        "--normalize",
+        s(&vase),
+        "-o",
+        s(&out("lut")),
+    ]);
+    let mean = |o: &str| {
+        run_json(&out(o))["angular_error_deg"]["mean"]
+            .as_f64()
+            .unwrap()
+    };
+    println!(
+        "mean error: region {:.3}°, --lut --normalize {:.3}°",
+        mean("region"),
+        mean("lut")
+    );
+    assert!(mean("region") < 1.0 && mean("lut") < 1.0);
+}
+
+/// A sphere that is not found: the advice names `run`'s own flags.
+#[test]
+fn run_advice_names_flags_run_takes() {
+    let root = tmp("run-advice");
+    let dark = root.join("dark");
+    photostereo_ok(&[
+        "-q",
+        "synth",
+        "--shape",
+        "sphere",
+        "--material",
+        "lambertian",
+        "--size",
+        "64",
+        "-o",
+        s(&dark),
+    ]);
+    // the sphere's images all black: nothing to find
+    for e in std::fs::read_dir(&dark).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "png") && !p.ends_with("mask.png") {
+            let img = image::GrayImage::new(64, 64);
+            img.save(&p).unwrap();
+        }
+    }
+    let (ok, _, err) = photostereo(&[
+        "run",
+        "--sphere",
+        s(&dark),
+        s(&dark),
+        "-o",
+        s(&root.join("out")),
+    ]);
+    assert!(!ok);
+    assert!(err.contains("with `run`: --sphere-region"), "{err}");
+}
+
+/// The target given as the sphere, and a matte sphere given as chrome: each warns; the
+/// real sphere and a shiny sphere stay silent.
+#[test]
+fn a_target_as_sphere_and_a_matte_chrome_sphere_warn() {
+    let root = tmp("not-a-sphere");
+    let (vase, sphere, matte) = data(&root);
+    let run = |args: &[&str], name: &str| {
+        let o = root.join(name);
+        let mut a = vec!["-q", "run"];
+        a.extend_from_slice(args);
+        a.extend_from_slice(&["-o", s(&o)]);
+        photostereo_ok(&a);
+        warnings(&o)
+    };
+    let ok = run(&["--sphere", s(&sphere), s(&vase)], "sphere");
+    assert!(!has(&ok, "this is not a sphere"), "{ok:?}");
+    let bad = run(&["--sphere", s(&vase), s(&vase)], "target-as-sphere");
+    assert!(has(&bad, "this is not a sphere"), "{bad:?}");
+    let matte_as_chrome = run(&["--chrome", s(&matte), s(&matte)], "matte-as-chrome");
+    assert!(
+        has(&matte_as_chrome, "no mirror highlights"),
+        "{matte_as_chrome:?}"
+    );
+}
+
+/// A `--chrome` run into the folder of a `--sphere` run: the lookup's files are gone,
+/// run.json lists what this run wrote and what it removed; a file of the user's stays.
+#[test]
+fn a_reused_output_folder_keeps_no_stale_files() {
+    let root = tmp("stale");
+    let (vase, sphere, matte) = data(&root);
+    let out = root.join("out");
+    photostereo_ok(&["-q", "run", "--sphere", s(&sphere), s(&vase), "-o", s(&out)]);
+    assert!(out.join("confidence.npy").is_file() && out.join("sphere_overlay.png").is_file());
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    photostereo_ok(&["-q", "run", "--lambertian", s(&matte), "-o", s(&out)]);
+    for stale in ["confidence.npy", "confidence.png", "sphere_overlay.png"] {
+        assert!(!out.join(stale).exists(), "{stale} left behind");
+    }
+    assert!(
+        out.join("notes.txt").is_file(),
+        "a file run does not write was removed"
+    );
+    let json = run_json(&out);
+    let list = |k: &str| -> Vec<String> {
+        json[k]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_str().unwrap().to_string())
+            .collect()
+    };
+    let (files, removed) = (list("files"), list("stale_removed"));
+    assert!(
+        removed.contains(&"confidence.npy".to_string()),
+        "{removed:?}"
+    );
+    for f in &files {
+        assert!(
+            out.join(f).is_file(),
+            "run.json lists {f}, which is not there"
+        );
+    }
+    for e in std::fs::read_dir(&out).unwrap() {
+        let name = e.unwrap().file_name().into_string().unwrap();
+        assert!(
+            files.contains(&name) || name == "notes.txt",
+            "{name} is in the folder but not in run.json's files"
+        );
+    }
+}

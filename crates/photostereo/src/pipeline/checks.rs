@@ -1,0 +1,58 @@
+//! Warnings about the inputs that no figure downstream would show: a given circle off
+//! the sphere's rim, a "sphere" that is not one, and a result that the spatial stage
+//! decided for most pixels ([`crate::sphere::checks`] does the sphere's measuring).
+
+use super::{Job, Normals, Options};
+use crate::spatial;
+use crate::sphere::{self, checks};
+
+/// Share of the mask decided by their neighbours above which [`warnings`] says so.
+pub const NEIGHBOURS_WARN: f64 = 0.5;
+
+/// The warnings of the sphere check (lookup jobs that detected the sphere) and of the
+/// spatial stage, with the figure row of a given circle's check.
+pub(super) fn warnings(
+    job: &Job,
+    circle: Option<&sphere::Detection>,
+    stats: Option<&spatial::Stats>,
+    opts: &Options,
+) -> (Vec<String>, Vec<(String, String)>) {
+    let (mut w, mut rows) = (Vec::new(), Vec::new());
+    if let (
+        Normals::Lookup {
+            sphere,
+            sphere_mask,
+        },
+        Some(det),
+    ) = (&job.normals, circle)
+    {
+        let mask = opts.detect.mask.as_ref().or(sphere_mask.as_ref());
+        if let Some(given) = &opts.detect.circle {
+            let d = sphere::DetectOptions {
+                mask: mask.cloned(),
+                ..opts.detect.clone()
+            };
+            let check = checks::check_given_circle(sphere, given, &d);
+            rows.push(("given circle check".to_string(), check.describe()));
+            w.extend(check.warning());
+        } else {
+            // a given circle is checked against the one found instead
+            let shape = checks::check_shape(det, mask);
+            rows.push(("sphere outline".to_string(), shape.describe()));
+            w.extend(shape.warning());
+        }
+    }
+    if let Some(s) = stats {
+        let share = s.decided_by_neighbours as f64 / s.pixels.max(1) as f64;
+        if share > NEIGHBOURS_WARN {
+            w.push(format!(
+                "most pixels decided by their neighbours: the spatial stage gave {:.0}% of the mask's \
+                 normals mostly from their neighbours, because their own images say little about them \
+                 (dark, shadowed, noisy, or intensities the table does not hold). There the normals are \
+                 a smooth guess, not a measurement: see own_share (0 = decided by the neighbours)",
+                100.0 * share
+            ));
+        }
+    }
+    (w, rows)
+}
