@@ -12,7 +12,7 @@ pub fn advice(err: &anyhow::Error) -> Option<&'static str> {
     match lib.root() {
         Error::Setting { setting, .. } => setting_flag(*setting),
         Error::SphereNotFound { .. } => Some(
-            "restrict the search with --sphere-region x,y,w,h or --mask FILE, or give the \
+            "restrict the search with --sphere-region x,y,w,h or --sphere-mask FILE, or give the \
              circle with --circle cx,cy,r",
         ),
         _ => None,
@@ -30,7 +30,7 @@ fn setting_flag(setting: Setting) -> Option<&'static str> {
         Setting::Lights => "give --lights FILE or --chrome CHROME_DIR",
         Setting::ImageScale => "--image-scale F takes a finite factor > 0",
         Setting::Circle => "--circle cx,cy,r gives the circle by hand (pixels)",
-        Setting::SphereSearch => "give the sphere's mask with --mask FILE",
+        Setting::SphereSearch => "give the sphere's mask with --sphere-mask FILE",
         Setting::FacetBlock => "give a larger --block (pixels)",
         _ => return None,
     })

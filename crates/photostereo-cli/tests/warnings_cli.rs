@@ -247,7 +247,12 @@ fn run_advice_names_flags_run_takes() {
         s(&root.join("out")),
     ]);
     assert!(!ok);
-    assert!(err.contains("with `run`: --sphere-region"), "{err}");
+    assert!(
+        err.contains(
+            "hint: restrict the search with --sphere-region x,y,w,h or --sphere-mask FILE"
+        ),
+        "{err}"
+    );
 }
 
 /// The target given as the sphere, and a matte sphere given as chrome: each warns; the

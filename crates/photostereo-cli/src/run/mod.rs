@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use photostereo::sphere::Circle;
-use photostereo::{integrate, io, pipeline, Error};
+use photostereo::{integrate, io, pipeline};
 
 use crate::progress::Bar;
 use crate::Global;
@@ -100,8 +100,9 @@ pub fn run(mut args: Args, global: Global) -> Result<()> {
     args.lambertian |= args.chrome.is_some();
     let inputs = inputs(&args)?;
     let opts = options(&args)?;
-    let done = pipeline::run(&inputs, &args.out, &opts, &Bar::new(global.quiet))
-        .map_err(|e| with_run_advice(e, &args))?;
+    // a sphere not found: main's hint names --sphere-region, --sphere-mask and --circle,
+    // which `run` takes as `calibrate` does
+    let done = pipeline::run(&inputs, &args.out, &opts, &Bar::new(global.quiet))?;
     if !global.quiet {
         for (k, v) in &done.output.figures {
             println!("{k:>36}: {v}");
@@ -169,16 +170,4 @@ fn options(args: &Args) -> Result<pipeline::Options> {
         opts.detect.mask = Some(io::read_mask_any(path)?);
     }
     Ok(opts)
-}
-
-/// A sphere that is not found: the library's advice names `calibrate`'s ways to help it;
-/// say how `run` spells them (its `--mask` is the target's).
-fn with_run_advice(e: Error, args: &Args) -> anyhow::Error {
-    if args.sphere.is_some() && matches!(e.root(), Error::SphereNotFound { .. }) {
-        return anyhow::anyhow!(
-            "{e}\nwith `run`: --sphere-region X,Y,W,H, --sphere-mask MASK (--mask is the \
-             target's) or --circle CX,CY,R; or --lut FILE with a table from `photostereo calibrate`"
-        );
-    }
-    e.into()
 }
