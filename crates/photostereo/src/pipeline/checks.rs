@@ -18,29 +18,34 @@ pub(super) fn warnings(
     opts: &Options,
 ) -> (Vec<String>, Vec<(String, String)>) {
     let (mut w, mut rows) = (Vec::new(), Vec::new());
-    if let (
-        Normals::Lookup {
-            sphere,
-            sphere_mask,
-        },
-        Some(det),
-    ) = (&job.normals, circle)
-    {
-        let mask = opts.detect.mask.as_ref().or(sphere_mask.as_ref());
-        if let Some(given) = &opts.detect.circle {
-            let d = sphere::DetectOptions {
-                mask: mask.cloned(),
-                ..opts.detect.clone()
-            };
-            let check = checks::check_given_circle(sphere, given, &d);
-            rows.push(("given circle check".to_string(), check.describe()));
-            w.extend(check.warning());
-        } else {
-            // a given circle is checked against the one found instead
-            let shape = checks::check_shape(det, mask);
-            rows.push(("sphere outline".to_string(), shape.describe()));
-            w.extend(shape.warning());
+    match (&job.normals, circle) {
+        (
+            Normals::Lookup {
+                sphere,
+                sphere_mask,
+            },
+            Some(det),
+        ) => {
+            let mask = opts.detect.mask.as_ref().or(sphere_mask.as_ref());
+            if let Some(given) = &opts.detect.circle {
+                let d = sphere::DetectOptions {
+                    mask: mask.cloned(),
+                    ..opts.detect.clone()
+                };
+                let check = checks::check_given_circle(sphere, given, &d);
+                rows.push(("given circle check".to_string(), check.describe()));
+                w.extend(check.warning());
+            } else {
+                // a given circle is checked against the one found instead; no figure row,
+                // so that the figures equal those of the same sphere's table made beforehand
+                w.extend(checks::check_shape(det, mask).warning());
+            }
         }
+        // a table made beforehand from a detection: the outline of its lit region
+        (Normals::Calibrated(_), Some(det)) if det.fitted_on != "given" => {
+            w.extend(checks::check_shape(det, None).warning());
+        }
+        _ => {}
     }
     if let Some(s) = stats {
         let share = s.decided_by_neighbours as f64 / s.pixels.max(1) as f64;
