@@ -51,6 +51,11 @@ pub struct Args {
     /// Gaussian blur of the images, `auto` (default) = the fit when the blur would be ≥ 1 px.
     #[arg(long, value_name = "HOW", value_parser = parse_denoise)]
     denoise: Option<Denoise>,
+    /// Response curve of the images: linear, srgb or gamma=G (default: srgb for JPEG
+    /// files, linear for PNG/TIFF). Lambertian photometric stereo and light calibration
+    /// need linear values: camera JPEGs are linearised from sRGB on reading.
+    #[arg(long, value_name = "CURVE", value_parser = crate::parse_response)]
+    response: Option<photostereo::io::Response>,
     /// Output table file.
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
@@ -61,6 +66,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     let load = io::LoadOptions {
         mask_path: args.mask.clone(),
         require_mask: args.mask.is_some(),
+        response: args.response.unwrap_or_default(),
         ..io::LoadOptions::default()
     };
     let data = io::load_dataset(&args.dir, &load)

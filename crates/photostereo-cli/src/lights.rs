@@ -48,7 +48,14 @@ pub struct Args {
     /// Skip this many pixels along the rim (grazing normals, mixed pixels).
     #[arg(long, value_name = "PX")]
     rim: Option<f64>,
-    /// Output light directions file (one `x y z` line per image, in image order).
+    /// Response curve of the images: linear, srgb or gamma=G (default: srgb for JPEG
+    /// files, linear for PNG/TIFF). Lambertian photometric stereo and light calibration
+    /// need linear values: camera JPEGs are linearised from sRGB on reading.
+    #[arg(long, value_name = "CURVE", value_parser = crate::parse_response)]
+    response: Option<photostereo::io::Response>,
+    /// Output light directions file: one `x y z` line per image, in image order, or,
+    /// when the name ends in `.lp`, an RTIBuilder / Relight light file (count, then
+    /// `filename x y z` per image).
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
 }
@@ -58,6 +65,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     let load = io::LoadOptions {
         mask_path: args.mask.clone(),
         require_mask: args.mask.is_some() || args.mask_outline,
+        response: args.response.unwrap_or_default(),
         ..io::LoadOptions::default()
     };
     let data = io::load_dataset(&args.dir, &load)
@@ -102,7 +110,12 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     // everything is computed before the first file is written
     let png = sphere::encode_png(&sphere::overlay(&det.max_image, &c))?;
     let overlay_path = side_file(&args.output, "overlay.png");
-    io::write_light_directions(&args.output, &lights)?;
+    if io::LightFormat::of(&args.output) == io::LightFormat::Lp {
+        // an .lp names the image of each light, so RTI tools can pair them
+        io::write_lp(&args.output, &data.stack.names, &lights)?;
+    } else {
+        io::write_light_directions(&args.output, &lights)?;
+    }
     if matte {
         let path = intensities_file(&args.output);
         io::write_intensities(&path, &lights)?;
@@ -186,26 +199,20 @@ fn table(names: &[String], lights: &Lights) -> String {
     s
 }
 
-/// The light directions of a `--lights FILE` option for a target of `k` images, with
-/// messages that name the file and say what to do.
-pub(crate) fn read_lights_option(file: &Path, k: usize) -> anyhow::Result<Lights> {
+/// The light directions of a `--lights FILE` option for a target whose images are
+/// `names`, with messages that name the file and say what to do. An RTI `.lp` file is
+/// matched to the images by file name; other files hold one light per image, in order.
+pub(crate) fn read_lights_option(file: &Path, names: &[String]) -> anyhow::Result<Lights> {
+    let k = names.len();
     if !file.is_file() {
         anyhow::bail!(
             "--lights {}: no such file; give a text file of {k} lines `x y z` (one light \
-             direction per image, in image order), or leave --lights out to use the dataset's \
-             light_directions.txt",
+             direction per image, in image order) or an RTI .lp file, or leave --lights out \
+             to use the dataset's light_directions.txt",
             file.display()
         );
     }
-    let lights = io::read_lights(file).with_context(|| format!("--lights {}", file.display()))?;
-    if lights.len() != k {
-        anyhow::bail!(
-            "--lights {}: {} directions for {k} images; give one `x y z` line per image",
-            file.display(),
-            lights.len()
-        );
-    }
-    Ok(lights)
+    io::read_lights_for(file, names).with_context(|| format!("--lights {}", file.display()))
 }
 
 /// A file beside `output` named after it: `out/sphere.lut` + `overlay.png` →

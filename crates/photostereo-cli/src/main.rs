@@ -114,6 +114,12 @@ fn error_message(err: &anyhow::Error) -> String {
 }
 
 /// Refuse an output directory that is an existing file, before any work is done.
+/// The value of `--response` (see [`photostereo::io::Response`]).
+pub(crate) fn parse_response(s: &str) -> Result<photostereo::io::Response, String> {
+    s.parse()
+        .map_err(|e: photostereo::error::Error| e.to_string())
+}
+
 pub fn check_output_dir(dir: &std::path::Path) -> anyhow::Result<()> {
     if dir.exists() && !dir.is_dir() {
         anyhow::bail!(

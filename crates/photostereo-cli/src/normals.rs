@@ -82,6 +82,11 @@ pub struct Args {
     /// else the whole image.
     #[arg(long, value_name = "MASK")]
     mask: Option<PathBuf>,
+    /// Response curve of the images: linear, srgb or gamma=G (default: srgb for JPEG
+    /// files, linear for PNG/TIFF). Lambertian photometric stereo and light calibration
+    /// need linear values: camera JPEGs are linearised from sRGB on reading.
+    #[arg(long, value_name = "CURVE", value_parser = crate::parse_response)]
+    response: Option<photostereo::io::Response>,
     /// Output directory (created if missing).
     #[arg(short, long, value_name = "OUT_DIR")]
     output: PathBuf,
@@ -102,6 +107,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         require_lights: args.lambertian && args.lights.is_none(),
         mask_path: args.mask.clone(),
         require_mask: args.mask.is_some(),
+        response: args.response.unwrap_or_default(),
         ..io::LoadOptions::default()
     };
     let data = io::load_dataset(&args.dir, &load)
@@ -257,7 +263,7 @@ fn lambertian_normals(
     global: Global,
 ) -> anyhow::Result<Results> {
     let from_file = match &args.lights {
-        Some(file) => Some(crate::lights::read_lights_option(file, data.stack.k)?),
+        Some(file) => Some(crate::lights::read_lights_option(file, &data.stack.names)?),
         None => None,
     };
     let lights = from_file

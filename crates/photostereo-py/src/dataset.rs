@@ -148,12 +148,24 @@ impl Dataset {
     }
 }
 
-/// load_dataset(path) -> Dataset: read a dataset directory (DiLiGenT layout).
+/// load_dataset(path, response=None) -> Dataset: read a dataset directory (DiLiGenT
+/// layout; PNG/TIFF/JPEG images, light_directions.txt or an RTI .lp / AliceVision
+/// lights.json). response: "linear", "srgb", "gamma=G" or None (sRGB for JPEG files,
+/// linear otherwise): how the stored values are linearised.
 #[pyfunction]
-pub fn load_dataset(py: Python<'_>, path: PathBuf) -> PyResult<Dataset> {
+#[pyo3(signature = (path, response=None))]
+pub fn load_dataset(py: Python<'_>, path: PathBuf, response: Option<&str>) -> PyResult<Dataset> {
     let p = path.clone();
+    let response: io::Response = match response {
+        Some(r) => r.parse().map_err(crate::to_py)?,
+        None => io::Response::Auto,
+    };
     let d = crate::compute(py, move || {
-        io::load_dataset(&p, &io::LoadOptions::default())
+        let opts = io::LoadOptions {
+            response,
+            ..Default::default()
+        };
+        io::load_dataset(&p, &opts)
     })?;
     Ok(Dataset::from_parts(
         py,

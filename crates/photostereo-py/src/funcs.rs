@@ -341,9 +341,10 @@ pub fn interreflect<'py>(
 
 /// run(target, out, sphere=None, table=None, lambertian=False, lights=None, chrome=None,
 /// mask=None, image_scale=None, interreflections=False, method=None, spatial=True,
-/// block=None) -> run.json text
+/// block=None, response=None) -> run.json text (response: "linear", "srgb", "gamma=G";
+/// None = sRGB for JPEG files, linear otherwise)
 #[pyfunction]
-#[pyo3(signature = (target, out, sphere=None, table=None, lambertian=false, lights=None, chrome=None, mask=None, image_scale=None, interreflections=false, method=None, spatial=true, block=None))]
+#[pyo3(signature = (target, out, sphere=None, table=None, lambertian=false, lights=None, chrome=None, mask=None, image_scale=None, interreflections=false, method=None, spatial=true, block=None, response=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     py: Python<'_>,
@@ -360,6 +361,7 @@ pub fn run(
     method: Option<&str>,
     spatial: bool,
     block: Option<usize>,
+    response: Option<&str>,
 ) -> PyResult<String> {
     let inputs = pipeline::Inputs {
         target,
@@ -370,6 +372,10 @@ pub fn run(
         chrome,
         mask,
         image_scale,
+        response: match response {
+            Some(r) => r.parse().map_err(crate::to_py)?,
+            None => Default::default(),
+        },
     };
     let opts = pipeline::Options {
         method: match method {

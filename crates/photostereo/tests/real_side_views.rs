@@ -183,6 +183,7 @@ fn real_objects_side_views_and_outline_steps() {
             chrome: Some(real.join("chrome")),
             mask: None,
             image_scale: None,
+            response: Default::default(),
         };
         let opts = Options::default();
         let loaded = pipeline::load(&inputs, &opts, &NoProgress).expect("load");

@@ -77,6 +77,11 @@ pub struct Args {
     /// rectangle, lsq with a mask, then bini where lsq leaves depth jumps).
     #[arg(long = "integrator", visible_alias = "method", value_name = "METHOD")]
     pub method: Option<String>,
+    /// Response curve of the images: linear, srgb or gamma=G (default: srgb for JPEG
+    /// files, linear for PNG/TIFF). Lambertian photometric stereo and light calibration
+    /// need linear values: camera JPEGs are linearised from sRGB on reading.
+    #[arg(long, value_name = "CURVE", value_parser = crate::parse_response)]
+    pub response: Option<photostereo::io::Response>,
     /// Mask file instead of the dataset's mask.png.
     #[arg(long)]
     pub mask: Option<PathBuf>,
@@ -142,6 +147,7 @@ fn inputs(args: &Args) -> Result<pipeline::Inputs> {
         chrome: args.chrome.clone(),
         mask: args.mask.clone(),
         image_scale: args.image_scale,
+        response: args.response.unwrap_or_default(),
     })
 }
 

@@ -112,8 +112,10 @@ class Table:
     def load(path: PathLike) -> Table:
         """Read a .lut file written by save or ``photostereo calibrate``."""
 
-def load_dataset(path: PathLike) -> Dataset:
-    """Read a dataset directory (DiLiGenT layout)."""
+def load_dataset(path: PathLike, response: Optional[str] = None) -> Dataset:
+    """Read a dataset directory (DiLiGenT layout; PNG/TIFF/JPEG images; lights from
+    light_directions.txt, an RTI .lp or an AliceVision lights.json). response:
+    "linear", "srgb", "gamma=G", or None (sRGB for JPEG files, linear otherwise)."""
 
 def calibrate(
     images: F32,
@@ -187,5 +189,6 @@ def run(
     method: Optional[str] = None,
     spatial: bool = True,
     block: Optional[int] = None,
+    response: Optional[str] = None,
 ) -> str:
     """The whole ``photostereo run``; returns the run.json text."""

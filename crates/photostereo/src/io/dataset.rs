@@ -2,7 +2,10 @@
 //! [module docs](super) for the files and the rules).
 
 use super::bands::{probe_images, BandReader, StackHeader};
-use super::raster::{decode_gray, read_mask_any, save_png, write_mask_png, Decoded, LUMA};
+use super::hdr;
+use super::lights_file::{self, LightFile};
+use super::raster::{decode_gray_response, read_mask_any, save_png, write_mask_png, Decoded, LUMA};
+use super::response::Response;
 use super::{read_text, write_text};
 use crate::error::{Error, Result};
 use crate::image::{normalize, ImageStack, Lights, Mask};
@@ -24,6 +27,9 @@ pub struct LoadOptions {
     pub apply_intensities: bool,
     /// Read the mask from this file (PNG/TIFF or `.npy`) instead of `dir/mask.png`.
     pub mask_path: Option<PathBuf>,
+    /// The response curve of the light images (default [`Response::Auto`]: sRGB for
+    /// JPEG files, linear for PNG/TIFF); values are linearised on reading.
+    pub response: Response,
 }
 
 impl Default for LoadOptions {
@@ -33,6 +39,7 @@ impl Default for LoadOptions {
             require_mask: false,
             apply_intensities: true,
             mask_path: None,
+            response: Response::Auto,
         }
     }
 }
@@ -58,6 +65,9 @@ pub struct Dataset {
     pub dir: PathBuf,
     /// Bit depth of the images: 8, 16 (or 32 for float TIFF).
     pub bit_depth: u8,
+    /// The response curve the images were linearised with ([`LoadOptions::response`]
+    /// resolved for the first image's format: never [`Response::Auto`]).
+    pub response: Response,
 }
 
 /// Load a dataset directory (DiLiGenT layout, see the [module docs](super)).
@@ -73,25 +83,30 @@ pub fn load_dataset(dir: &Path, opts: &LoadOptions) -> Result<Dataset> {
             fix: "give the directory that holds the light images".into(),
         });
     }
-    let files = list_images(dir)?;
+    let response = opts.response.check()?;
+    let other = other_light_file(dir)?;
+    let files = list_images(dir, other.as_ref())?;
+    // several exposures per light: each line of filenames.txt names them
+    let brackets = hdr::brackets(dir, &files)?;
+    let files: Vec<PathBuf> = match &brackets {
+        Some(b) => b.iter().map(|(f, _)| f[0].clone()).collect(),
+        None => files,
+    };
     let k = files.len();
-    let (lights, raw_intensities) = read_light_files(dir, k, opts)?;
+    let (lights, raw_intensities) = read_light_files(dir, &files, other.as_ref(), opts)?;
     let scales: Vec<Option<[f32; 3]>> = (0..k)
         .map(|i| match &raw_intensities {
             Some(v) if opts.apply_intensities => Some(v[i]),
             _ => None,
         })
         .collect();
-    let (mut stack, mask, saturated, bit_depth) = decode_stack(dir, &files, &scales, opts)?;
-    stack.names = files
-        .iter()
-        .map(|f| {
-            f.file_name()
-                .unwrap_or_default()
-                .to_string_lossy()
-                .into_owned()
-        })
-        .collect();
+    // several exposures per light are merged into one image (io::hdr)
+    let decode = |i: usize| match &brackets {
+        Some(b) => hdr::decode_bracket(&b[i].0, &b[i].1, scales[i], response),
+        None => decode_gray_response(&files[i], scales[i], response),
+    };
+    let (mut stack, mask, saturated, bit_depth) = decode_stack(dir, &files, opts, &decode)?;
+    stack.names = file_names(&files);
     Ok(Dataset {
         stack,
         lights,
@@ -100,6 +115,7 @@ pub fn load_dataset(dir: &Path, opts: &LoadOptions) -> Result<Dataset> {
         saturated,
         dir: dir.to_path_buf(),
         bit_depth,
+        response: response.resolve(format_of(&files[0])),
     })
 }
 
@@ -131,9 +147,11 @@ pub fn open_dataset_bands(dir: &Path, opts: &LoadOptions) -> Result<DatasetBands
             fix: "give the directory that holds the light images".into(),
         });
     }
-    let files = list_images(dir)?;
+    let other = other_light_file(dir)?;
+    let files = list_images(dir, other.as_ref())?;
     let k = files.len();
-    let (lights, raw_intensities) = read_light_files(dir, k, opts)?;
+    let (lights, raw_intensities) = read_light_files(dir, &files, other.as_ref(), opts)?;
+    check_banded(dir, &files[0], opts.response)?;
     let header = probe_images(&files)?;
     let mask = load_mask(dir, opts, header.width, header.height)?;
     let scales: Vec<Option<[f32; 3]>> = (0..k)
@@ -150,6 +168,30 @@ pub fn open_dataset_bands(dir: &Path, opts: &LoadOptions) -> Result<DatasetBands
         mask,
         dir: dir.to_path_buf(),
     })
+}
+
+/// Band-wise reading takes linear single-exposure images: refuse a bracketed dataset
+/// ([`hdr`]) or images with a non-linear response (a JPEG read as sRGB).
+fn check_banded(dir: &Path, first: &Path, response: Response) -> Result<()> {
+    if dir.join("exposure_times.txt").exists() {
+        return Err(Error::invalid(
+            format!(
+                "{}: several exposures per light (exposure_times.txt)",
+                dir.display()
+            ),
+            "read by row bands needs one linear image per light: load the whole dataset \
+             (the exposures are merged on loading) or merge them beforehand",
+        ));
+    }
+    let curve = response.check()?.resolve(format_of(first));
+    if curve != Response::Linear {
+        return Err(Error::invalid(
+            format!("{}: images with a {curve} response", first.display()),
+            "read by row bands needs linear images (PNG/TIFF): load the whole dataset, \
+             which linearises them, or convert them to 16-bit linear PNG",
+        ));
+    }
+    Ok(())
 }
 
 impl DatasetBands {
@@ -172,10 +214,10 @@ type DecodedStack = (ImageStack, Option<Mask>, usize, u8);
 fn decode_stack(
     dir: &Path,
     files: &[PathBuf],
-    scales: &[Option<[f32; 3]>],
     opts: &LoadOptions,
+    decode: &(dyn Fn(usize) -> Result<Decoded> + Sync),
 ) -> Result<DecodedStack> {
-    let first = decode_gray(&files[0], scales[0])?;
+    let first = decode(0)?;
     let (w, h, k) = (first.image.width, first.image.height, files.len());
     let bit_depth = first.bit_depth;
     // a bad mask is reported after the images, as when the images were decoded first
@@ -189,7 +231,7 @@ fn decode_stack(
         let end = (start + batch).min(k);
         let decoded: Vec<Decoded> = (start..end)
             .into_par_iter()
-            .map(|i| decode_gray(&files[i], scales[i]))
+            .map(decode)
             .collect::<Result<_>>()?;
         for (d, i) in decoded.iter().zip(start..end) {
             check_consistent((&files[0], &first), (&files[i], d))?;
@@ -211,23 +253,77 @@ fn interleave(stack: &mut ImageStack, i: usize, image: &crate::image::GrayImage)
 /// The lights and the raw intensity triples of a dataset, each if present.
 type LightFiles = (Option<Lights>, Option<Vec<[f32; 3]>>);
 
-/// `light_directions.txt` and `light_intensities.txt` of `dir`, checked against the
-/// number of images `k`. The lights' intensities are 1 when the intensities are
-/// applied to the images, else the luminance of each entry.
-fn read_light_files(dir: &Path, k: usize, opts: &LoadOptions) -> Result<LightFiles> {
-    let raw = optional(dir.join("light_intensities.txt"), |p| {
+/// The format of an image file, by its first bytes (`None` when unreadable).
+pub(crate) fn format_of(path: &Path) -> Option<image::ImageFormat> {
+    image::ImageReader::open(path)
+        .ok()?
+        .with_guessed_format()
+        .ok()?
+        .format()
+}
+
+/// The file names (last components) of `files`.
+fn file_names(files: &[PathBuf]) -> Vec<String> {
+    files
+        .iter()
+        .map(|f| {
+            f.file_name()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect()
+}
+
+/// The light file of another tool (`.lp`, `lights.json`) of `dir`, read, when the
+/// dataset has no `light_directions.txt` ([`lights_file::find_light_file`]).
+fn other_light_file(dir: &Path) -> Result<Option<(PathBuf, LightFile)>> {
+    if dir.join("light_directions.txt").exists() {
+        return Ok(None);
+    }
+    match lights_file::find_light_file(dir)? {
+        Some(p) => Ok(Some((p.clone(), lights_file::read_light_file(&p)?))),
+        None => Ok(None),
+    }
+}
+
+/// `light_directions.txt` (else the light file of another tool, `other`) and
+/// `light_intensities.txt` (else the intensities of `other`) of `dir`, checked against
+/// the images `files`. The lights' intensities are 1 when the intensities are applied
+/// to the images, else the luminance of each entry.
+fn read_light_files(
+    dir: &Path,
+    files: &[PathBuf],
+    other: Option<&(PathBuf, LightFile)>,
+    opts: &LoadOptions,
+) -> Result<LightFiles> {
+    let k = files.len();
+    let mut raw = optional(dir.join("light_intensities.txt"), |p| {
         let v = read_intensities(p)?;
         check_count(p, k, v.len(), "one intensity line per image")?;
         Ok(v)
     })?;
-    let lights = optional(dir.join("light_directions.txt"), |p| {
-        let mut l = read_lights(p)?;
+    let mut lights = optional(dir.join("light_directions.txt"), |p| {
+        let l = read_lights(p)?;
         check_count(p, k, l.len(), "one direction line per image")?;
-        if let (Some(v), false) = (&raw, opts.apply_intensities) {
-            l.intensities = v.iter().map(|t| luminance(*t)).collect();
-        }
         Ok(l)
     })?;
+    if let Some((path, file)) = other {
+        let names = file_names(files);
+        // an .lp is matched by file name (it may list more images than filenames.txt)
+        let l = match &file.names {
+            Some(lp) => lights_file::reorder(path, &file.lights, lp, &names)?,
+            None => file.lights.clone(),
+        };
+        check_count(path, k, l.len(), "one light per image, in image order")?;
+        lights = Some(l);
+        if raw.is_none() {
+            raw = file.intensities.clone();
+        }
+    }
+    if let (Some(l), Some(v), false) = (lights.as_mut(), &raw, opts.apply_intensities) {
+        l.intensities = v.iter().map(|t| luminance(*t)).collect();
+    }
     if opts.require_lights && lights.is_none() {
         return Err(Error::NotFound {
             path: dir.join("light_directions.txt"),
@@ -237,7 +333,7 @@ fn read_light_files(dir: &Path, k: usize, opts: &LoadOptions) -> Result<LightFil
     Ok((lights, raw))
 }
 
-fn luminance(t: [f32; 3]) -> f32 {
+pub(crate) fn luminance(t: [f32; 3]) -> f32 {
     LUMA[0] * t[0] + LUMA[1] * t[1] + LUMA[2] * t[2]
 }
 
@@ -263,7 +359,10 @@ fn check_count(path: &Path, expected: usize, found: usize, fix: &str) -> Result<
 }
 
 /// An image must share the size and bit depth of the first.
-fn check_consistent(first: (&PathBuf, &Decoded), this: (&PathBuf, &Decoded)) -> Result<()> {
+pub(crate) fn check_consistent(
+    first: (&PathBuf, &Decoded),
+    this: (&PathBuf, &Decoded),
+) -> Result<()> {
     let ((f0, first), (f, d)) = (first, this);
     if !d.image.same_size(&first.image) {
         return Err(Error::SizeMismatch {
@@ -319,7 +418,7 @@ fn count_saturated(d: &Decoded, mask: Option<&Mask>) -> usize {
         .count()
 }
 
-/// True when a file name may be a light image: a PNG/TIFF extension, and a stem
+/// True when a file name may be a light image: a PNG/TIFF/JPEG extension, and a stem
 /// (lower case) that neither contains `mask`, nor ends in `_gt`, nor starts with
 /// `normal`, `depth`, `albedo`, `error`, `overlay` or `preview`.
 pub fn is_light_image_name(name: &str) -> bool {
@@ -327,7 +426,7 @@ pub fn is_light_image_name(name: &str) -> bool {
     let Some((stem, ext)) = lower.rsplit_once('.') else {
         return false;
     };
-    let image_ext = matches!(ext, "png" | "tif" | "tiff");
+    let image_ext = matches!(ext, "png" | "tif" | "tiff" | "jpg" | "jpeg");
     let excluded = stem.contains("mask")
         || stem.ends_with("_gt")
         || ["normal", "depth", "albedo", "error", "overlay", "preview"]
@@ -336,14 +435,18 @@ pub fn is_light_image_name(name: &str) -> bool {
     image_ext && !excluded && !stem.is_empty()
 }
 
-/// The light images of `dir`: from `filenames.txt` if present, else by name.
-fn list_images(dir: &Path) -> Result<Vec<PathBuf>> {
+/// The light images of `dir`: from `filenames.txt` if present, else those an `.lp`
+/// light file names (`other`), else by name.
+fn list_images(dir: &Path, other: Option<&(PathBuf, LightFile)>) -> Result<Vec<PathBuf>> {
     let list = dir.join("filenames.txt");
+    let lp_names = other.and_then(|(p, f)| f.names.as_ref().map(|n| (p, n)));
     let files: Vec<PathBuf> = if list.exists() {
         read_filenames(&list)?
             .into_iter()
             .map(|n| dir.join(n))
             .collect()
+    } else if let Some((lp, names)) = lp_names {
+        lp_images(dir, lp, names)?
     } else {
         let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
         let mut names = Vec::new();
@@ -360,14 +463,36 @@ fn list_images(dir: &Path) -> Result<Vec<PathBuf>> {
     if files.is_empty() {
         return Err(Error::invalid(
             format!("{}: no light images", dir.display()),
-            "put the images (PNG/TIFF, e.g. 001.png ...) there or list them in filenames.txt",
+            "put the images (PNG/TIFF/JPEG, e.g. 001.png ...) there or list them in filenames.txt",
         ));
     }
     Ok(files)
 }
 
+/// The images an `.lp` file `lp` names, in `dir` (matched by file name): each must exist.
+fn lp_images(dir: &Path, lp: &Path, names: &[String]) -> Result<Vec<PathBuf>> {
+    names
+        .iter()
+        .map(|n| {
+            let p = dir.join(n);
+            if p.is_file() {
+                Ok(p)
+            } else {
+                Err(Error::NotFound {
+                    path: p,
+                    fix: format!(
+                        "{} names this image: put it in {} (images are matched by file name)",
+                        lp.display(),
+                        dir.display()
+                    ),
+                })
+            }
+        })
+        .collect()
+}
+
 /// File names from `filenames.txt`: one per line; blank lines and `#` comments skipped.
-fn read_filenames(path: &Path) -> Result<Vec<String>> {
+pub(crate) fn read_filenames(path: &Path) -> Result<Vec<String>> {
     let text = read_text(path)?;
     Ok(text
         .lines()
@@ -407,7 +532,7 @@ fn trim_zeros(d: &[u8]) -> &[u8] {
 
 /// Parse the numeric lines of a text table (blank lines and `#` comments skipped;
 /// numbers separated by spaces, tabs or commas). Returns (line number, values).
-fn parse_rows(path: &Path) -> Result<Vec<(usize, Vec<f32>)>> {
+pub(crate) fn parse_rows(path: &Path) -> Result<Vec<(usize, Vec<f32>)>> {
     let text = read_text(path)?;
     let mut rows = Vec::new();
     for (i, line) in text.lines().enumerate() {

@@ -7,14 +7,16 @@
 //!
 //! | file | required | content |
 //! |---|---|---|
-//! | light images | yes | 8/16-bit grayscale or RGB PNG/TIFF, one per light |
+//! | light images | yes | 8/16-bit grayscale or RGB PNG/TIFF, or JPEG, one per light |
 //! | `filenames.txt` | no | the image file names in light order, one per line |
 //! | `light_directions.txt` | no | one `x y z` line per light (surface → light, camera frame; normalised on load) |
 //! | `light_intensities.txt` | no | one line per light: one value, or an `R G B` triple |
+//! | `*.lp` or `lights.json` | no | instead of `light_directions.txt`: an RTIBuilder / Relight `.lp` file (it also lists the images: without `filenames.txt` they are its images, matched by file name) or an AliceVision `lights.json` (lights in image order; its intensities stand in for `light_intensities.txt`), see [`lights_file`] |
 //! | `mask.png` | no | object mask, non-zero = inside |
+//! | `exposure_times.txt` | no | several exposures per light: each `filenames.txt` line names one file per exposure, this file the relative exposure of each column; merged into one linear image per light, see [`hdr`] |
 //!
-//! Without `filenames.txt` the light images are every `*.png`, `*.tif`, `*.tiff`
-//! file of the directory in natural name order (`2.png` before `10.png`), except
+//! Without `filenames.txt` the light images are every `*.png`, `*.tif`, `*.tiff`,
+//! `*.jpg`, `*.jpeg` file of the directory in natural name order (`2.png` before `10.png`), except
 //! files that are not light images by name ([`dataset::is_light_image_name`]):
 //! a stem (name without extension, lower case) that contains `mask` (`mask.png`,
 //! `lit_mask.png`), ends in `_gt` (`normal_gt.png`), or starts with `normal`,
@@ -25,7 +27,15 @@
 //! Integer samples are divided by their full scale (255 or 65535), so values lie in
 //! [0, 1]. RGB images are converted to luminance after each channel has been divided
 //! by its light intensity: Y = 0.2126 R/I_R + 0.7152 G/I_G + 0.0722 B/I_B (Rec. 709
-//! weights on linear values; no gamma is undone, photometric-stereo data is linear).
+//! weights on linear values).
+//!
+//! Before that, each stored value is linearised by the response curve of
+//! [`LoadOptions::response`] ([`Response`]): by default sRGB for JPEG files (camera
+//! JPEGs are sRGB-encoded) and linear for PNG and TIFF (8-bit PNGs included, unless
+//! told otherwise). Lambertian photometric stereo and light calibration need linear
+//! values. The lookup of a sphere of the same material, same camera, does not: a
+//! monotonic response shared by sphere and target leaves an exact match a match; it
+//! does once the albedo is free (the table's scale normalisation assumes linear values).
 //! A grayscale image with an RGB intensity triple is divided by the triple's
 //! luminance. An alpha channel is ignored. Float TIFFs are taken as they are.
 //!
@@ -44,9 +54,12 @@
 
 pub mod bands;
 pub mod dataset;
+pub mod hdr;
+pub mod lights_file;
 pub mod limits;
 pub mod npy;
 pub mod raster;
+pub mod response;
 pub mod run;
 
 pub use bands::{probe_images, BandReader, StackHeader};
@@ -54,6 +67,7 @@ pub use dataset::{
     load_dataset, open_dataset_bands, read_intensities, read_lights, write_dataset,
     write_intensities, write_light_directions, Dataset, DatasetBands, LoadOptions,
 };
+pub use lights_file::{read_light_file, read_lights_for, write_lp, LightFile, LightFormat};
 pub use npy::{
     read_gray_npy, read_mask_npy, read_normals_npy, write_gray_npy, write_mask_npy, write_normals,
 };
@@ -61,6 +75,7 @@ pub use raster::{
     read_gray_image, read_mask, read_mask_any, read_normals_png, write_colormap_png,
     write_depth_png, write_gray_png, write_gray_png_range, write_mask_png, write_normals_png,
 };
+pub use response::Response;
 pub use run::{
     dataset_name, previous_run_files, read_ground_truth, read_meta_scale, read_table, remove_files,
     write_table, RUN_FILES,

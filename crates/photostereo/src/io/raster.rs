@@ -8,11 +8,12 @@
 //!   c = (n + 1)/2, gray images as auto-scaled 16-bit, masks as 8-bit 0/255, and
 //!   false-colour 8-bit RGB pictures (turbo colour map) of depth or error maps.
 
+use super::response::Response;
 use super::{encode_error, limits, not_found_or_io, write_atomic};
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, Mask, NormalMap};
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
-use image::{DynamicImage, ImageBuffer, ImageReader, Luma, Rgb};
+use image::{DynamicImage, ImageBuffer, ImageFormat, ImageReader, Luma, Rgb};
 use std::path::Path;
 
 /// Rec. 709 luminance weights on linear R, G, B.
@@ -38,7 +39,7 @@ pub fn read_gray_image(path: &Path, channel_scale: Option<[f32; 3]>) -> Result<(
 
 /// An image reader for `path` with its format guessed and the [`limits`] set.
 pub(crate) fn reader(path: &Path) -> Result<ImageReader<std::io::BufReader<std::fs::File>>> {
-    let fix = "check the path; images must be PNG or TIFF files";
+    let fix = "check the path; images must be PNG, TIFF or JPEG files";
     let mut reader = ImageReader::open(path)
         .map_err(|e| not_found_or_io(path, e, fix))?
         .with_guessed_format()
@@ -50,7 +51,13 @@ pub(crate) fn reader(path: &Path) -> Result<ImageReader<std::io::BufReader<std::
 /// Decode an image after checking the size its header claims against the [`limits`]
 /// (the header alone is read first, so a lying header costs no allocation).
 pub(crate) fn open_image(path: &Path) -> Result<DynamicImage> {
+    open_image_format(path).map(|(img, _)| img)
+}
+
+/// [`open_image`], with the file's format (by its content).
+fn open_image_format(path: &Path) -> Result<(DynamicImage, Option<ImageFormat>)> {
     let mut probe = reader(path)?;
+    let format = probe.format();
     // No size limit on the probe, so that the size it reads is reported in our words.
     let mut lenient = limits::image_limits();
     (lenient.max_image_width, lenient.max_image_height) = (None, None);
@@ -59,13 +66,24 @@ pub(crate) fn open_image(path: &Path) -> Result<DynamicImage> {
     if let Ok((w, h)) = probe.into_dimensions() {
         limits::check_dimensions(path, w as u64, h as u64)?;
     }
-    reader(path)?.decode().map_err(|e| Error::Decode {
+    let img = reader(path)?.decode().map_err(|e| Error::Decode {
         path: path.to_path_buf(),
-        message: format!("{e} (expected an 8/16-bit gray or RGB PNG or TIFF image)"),
-    })
+        message: format!("{e} (expected an 8/16-bit gray or RGB PNG, TIFF or JPEG image)"),
+    })?;
+    Ok((img, format))
 }
 
 pub(crate) fn decode_gray(path: &Path, channel_scale: Option<[f32; 3]>) -> Result<Decoded> {
+    decode_gray_response(path, channel_scale, Response::Linear)
+}
+
+/// [`decode_gray`] with the values linearised by `response` (resolved for the file's
+/// format: [`Response::Auto`] is sRGB for a JPEG).
+pub(crate) fn decode_gray_response(
+    path: &Path,
+    channel_scale: Option<[f32; 3]>,
+    response: Response,
+) -> Result<Decoded> {
     let scale = channel_scale.unwrap_or([1.0; 3]);
     if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
         return Err(Error::invalid(
@@ -73,9 +91,13 @@ pub(crate) fn decode_gray(path: &Path, channel_scale: Option<[f32; 3]>) -> Resul
             "intensities must be finite and positive",
         ));
     }
-    let img = open_image(path)?;
+    let (img, format) = open_image_format(path)?;
     let (w, h) = (img.width() as usize, img.height() as usize);
-    let (data, saturated, bit_depth) = match &img {
+    let response = response.resolve(format);
+    if response != Response::Linear {
+        return finish(path, (w, h), curved(path, &img, scale, response)?);
+    }
+    let converted = match &img {
         DynamicImage::ImageLuma8(b) => convert(b.as_raw(), 1, false, Some(u8::MAX), scale, 8),
         DynamicImage::ImageLumaA8(b) => convert(b.as_raw(), 2, false, Some(u8::MAX), scale, 8),
         DynamicImage::ImageRgb8(b) => convert(b.as_raw(), 3, true, Some(u8::MAX), scale, 8),
@@ -86,13 +108,24 @@ pub(crate) fn decode_gray(path: &Path, channel_scale: Option<[f32; 3]>) -> Resul
         DynamicImage::ImageRgba16(b) => convert(b.as_raw(), 4, true, Some(u16::MAX), scale, 16),
         DynamicImage::ImageRgb32F(b) => convert(b.as_raw(), 3, true, None, scale, 32),
         DynamicImage::ImageRgba32F(b) => convert(b.as_raw(), 4, true, None, scale, 32),
-        other => {
-            return Err(Error::Decode {
-                path: path.to_path_buf(),
-                message: format!("unsupported pixel type {:?}", other.color()),
-            })
-        }
+        other => return Err(unsupported(path, other)),
     };
+    finish(path, (w, h), converted)
+}
+
+/// Luminance, saturation flags and bit depth of a decoded image.
+type Converted = (Vec<f32>, Vec<bool>, u8);
+
+fn unsupported(path: &Path, img: &DynamicImage) -> Error {
+    Error::Decode {
+        path: path.to_path_buf(),
+        message: format!("unsupported pixel type {:?}", img.color()),
+    }
+}
+
+/// Luminance, saturation flags and bit depth as a [`Decoded`], checked finite.
+fn finish(path: &Path, (w, h): (usize, usize), converted: Converted) -> Result<Decoded> {
+    let (data, saturated, bit_depth) = converted;
     if let Some(i) = data.iter().position(|v| !v.is_finite()) {
         return Err(Error::Decode {
             path: path.to_path_buf(),
@@ -167,6 +200,73 @@ pub(crate) fn convert<T: Sample>(
         }
         out.push(y);
         sat.push(full.is_some_and(|f| px[..used].contains(&f)));
+    }
+    (out, sat, bit_depth)
+}
+
+/// Luminance of `img` with every colour sample linearised by `response` first (a
+/// table per integer code), then divided by `scale`; the saturation flags are those of
+/// the stored values.
+fn curved(
+    path: &Path,
+    img: &DynamicImage,
+    scale: [f32; 3],
+    response: Response,
+) -> Result<Converted> {
+    let lut8 = || response.table(255);
+    let lut16 = || response.table(65535);
+    Ok(match img {
+        DynamicImage::ImageLuma8(b) => convert_curve(b.as_raw(), 1, false, &lut8(), scale, 8),
+        DynamicImage::ImageLumaA8(b) => convert_curve(b.as_raw(), 2, false, &lut8(), scale, 8),
+        DynamicImage::ImageRgb8(b) => convert_curve(b.as_raw(), 3, true, &lut8(), scale, 8),
+        DynamicImage::ImageRgba8(b) => convert_curve(b.as_raw(), 4, true, &lut8(), scale, 8),
+        DynamicImage::ImageLuma16(b) => convert_curve(b.as_raw(), 1, false, &lut16(), scale, 16),
+        DynamicImage::ImageLumaA16(b) => convert_curve(b.as_raw(), 2, false, &lut16(), scale, 16),
+        DynamicImage::ImageRgb16(b) => convert_curve(b.as_raw(), 3, true, &lut16(), scale, 16),
+        DynamicImage::ImageRgba16(b) => convert_curve(b.as_raw(), 4, true, &lut16(), scale, 16),
+        DynamicImage::ImageRgb32F(_) | DynamicImage::ImageRgba32F(_) => {
+            // float files hold linear values already; a curve is applied as asked
+            let rgb = img.to_rgb32f();
+            let raw: Vec<f32> = rgb
+                .as_raw()
+                .iter()
+                .map(|&v| response.linearize(v))
+                .collect();
+            convert(&raw, 3, true, None, scale, 32)
+        }
+        other => return Err(unsupported(path, other)),
+    })
+}
+
+/// Interleaved integer samples → luminance of the linearised (`lut`) colour channels,
+/// each divided by its `scale`, and saturation flags (a channel at the top code).
+fn convert_curve<T: Sample + Into<u32>>(
+    raw: &[T],
+    channels: usize,
+    color: bool,
+    lut: &[f32],
+    scale: [f32; 3],
+    bit_depth: u8,
+) -> (Vec<f32>, Vec<bool>, u8) {
+    let top = (lut.len() - 1) as u32;
+    let gray_scale = LUMA[0] * scale[0] + LUMA[1] * scale[1] + LUMA[2] * scale[2];
+    let (weights, used) = if color {
+        (std::array::from_fn(|i| LUMA[i] / scale[i]), 3)
+    } else {
+        ([1.0 / gray_scale, 0.0, 0.0], 1)
+    };
+    let mut out = Vec::with_capacity(raw.len() / channels);
+    let mut sat = Vec::with_capacity(raw.len() / channels);
+    for px in raw.chunks_exact(channels) {
+        let mut y = 0.0;
+        let mut clipped = false;
+        for i in 0..used {
+            let code: u32 = px[i].into();
+            y += weights[i] * lut[code as usize];
+            clipped |= code == top;
+        }
+        out.push(y);
+        sat.push(clipped);
     }
     (out, sat, bit_depth)
 }

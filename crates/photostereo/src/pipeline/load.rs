@@ -27,7 +27,8 @@ pub struct Inputs {
     /// Lambertian photometric stereo with known lights: `lights`, else `chrome`, else the
     /// dataset's `light_directions.txt`.
     pub lambertian: bool,
-    /// Light directions file (K lines `x y z`) instead of the dataset's (Lambertian).
+    /// Light file instead of the dataset's (Lambertian): K lines `x y z`, an RTI `.lp`
+    /// (matched to the images by file name) or an AliceVision `lights.json`.
     pub lights: Option<PathBuf>,
     /// Chrome sphere dataset under the same lights: lights from its highlights (Lambertian).
     pub chrome: Option<PathBuf>,
@@ -37,6 +38,9 @@ pub struct Inputs {
     /// interreflection removal 65535/scale of the dataset's `meta.json` if it has one,
     /// else 1 ([`radiance_scale`]).
     pub image_scale: Option<f32>,
+    /// Response curve of the images of the target, the sphere and the chrome sphere
+    /// (default: sRGB for JPEG files, linear otherwise; see [`io::Response`]).
+    pub response: io::Response,
 }
 
 /// A loaded job, with its titles and the timings of the loading.
@@ -59,6 +63,8 @@ pub struct Loaded {
     /// Warnings about the inputs found while loading (a "chrome" sphere without mirror
     /// highlights); [`run`] adds them to the output's.
     pub warnings: Vec<String>,
+    /// The response curve the target's images were linearised with (resolved).
+    pub response: io::Response,
 }
 
 /// A finished run.
@@ -79,6 +85,11 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
     let t0 = Instant::now();
     let load_opts = io::LoadOptions {
         mask_path: inputs.mask.clone(),
+        response: inputs.response,
+        ..Default::default()
+    };
+    let others = io::LoadOptions {
+        response: inputs.response,
         ..Default::default()
     };
     let mut target = io::load_dataset(&inputs.target, &load_opts)?;
@@ -104,7 +115,7 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
     let normals = if let Some(cal) = &inputs.calibration {
         Normals::Calibrated(Box::new(cal.clone()))
     } else if let Some(dir) = &inputs.sphere {
-        let sphere = io::load_dataset(dir, &io::LoadOptions::default())?;
+        let sphere = io::load_dataset(dir, &others)?;
         if sphere.stack.k != target.stack.k {
             return Err(Error::invalid(
                 format!(
@@ -124,7 +135,7 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         }
     } else {
         let t = Instant::now();
-        let (lights, det) = lights(inputs, target.lights.clone(), target.stack.k, progress)?;
+        let (lights, det) = lights(inputs, target.lights.clone(), &target.stack.names, progress)?;
         if let Some((det, mirror)) = det {
             warnings.extend(mirror.warning());
             chrome = Some(det);
@@ -132,6 +143,7 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         stages.push(("lights".to_string(), t.elapsed().as_secs_f64()));
         Normals::Lambertian { lights }
     };
+    let response = target.response;
     let (tn, td) = io::read_ground_truth(&inputs.target)?;
     let job = Job {
         target: target.stack,
@@ -154,6 +166,7 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         image_scale,
         chrome,
         warnings,
+        response,
     })
 }
 
@@ -168,6 +181,10 @@ pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress)
             .figures
             .push(("image scale (images ×)".into(), format!("{scale} ({from})")));
     }
+    // run.json's figures record how the images were linearised
+    output
+        .figures
+        .push(("image response".into(), loaded.response.to_string()));
     output.chrome = loaded.chrome.clone();
     for w in &loaded.warnings {
         progress.note(&format!("warning: {w}"));
@@ -241,9 +258,10 @@ pub fn scale_is_known(dir: &Path, given: Option<f32>, use_meta: bool) -> Result<
 fn lights(
     inputs: &Inputs,
     from_dataset: Option<Lights>,
-    k: usize,
+    names: &[String],
     progress: &dyn Progress,
 ) -> Result<(Lights, Option<(sphere::Detection, MirrorCheck)>)> {
+    let k = names.len();
     if let Some(file) = &inputs.lights {
         if !file.is_file() {
             return Err(Error::setting(
@@ -251,26 +269,17 @@ fn lights(
                 format!("light directions {}: no such file", file.display()),
                 format!(
                     "give a text file of {k} lines `x y z` (one light direction per image, in \
-                     image order), or none to use the dataset's light_directions.txt"
+                     image order) or an RTI .lp file, or none to use the dataset's \
+                     light_directions.txt"
                 ),
             ));
         }
-        let lights = io::read_lights(file)?;
-        if lights.len() != k {
-            return Err(Error::setting(
-                Setting::LightsFile,
-                format!(
-                    "light directions {}: {} directions for {k} images",
-                    file.display(),
-                    lights.len()
-                ),
-                "give one `x y z` line per image",
-            ));
-        }
+        // an .lp file is matched to the images by file name, other files by order
+        let lights = io::read_lights_for(file, names)?;
         return Ok((lights, None));
     }
     if let Some(dir) = &inputs.chrome {
-        let (lights, det, mirror) = chrome_lights(dir)?;
+        let (lights, det, mirror) = chrome_lights(dir, inputs.response)?;
         progress.note(&format!(
             "lights calibrated from the chrome sphere {}",
             dir.display()
@@ -288,8 +297,15 @@ fn lights(
 
 /// Lights from the highlights of a chrome sphere dataset, the sphere's detection, and
 /// whether its highlights look like a mirror's.
-fn chrome_lights(dir: &Path) -> Result<(Lights, sphere::Detection, MirrorCheck)> {
-    let chrome = io::load_dataset(dir, &io::LoadOptions::default())?;
+fn chrome_lights(
+    dir: &Path,
+    response: io::Response,
+) -> Result<(Lights, sphere::Detection, MirrorCheck)> {
+    let load = io::LoadOptions {
+        response,
+        ..Default::default()
+    };
+    let chrome = io::load_dataset(dir, &load)?;
     let det = sphere::detect(
         &chrome.stack,
         &sphere::DetectOptions {

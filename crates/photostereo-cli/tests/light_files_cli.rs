@@ -1,0 +1,205 @@
+//! Light files of other tools: an RTI `.lp` file (in the dataset folder or given with
+//! `--lights`) and an AliceVision `lights.json` give the same normals as
+//! `light_directions.txt`; bad files are refused with the file named.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use photostereo::io;
+use photostereo::synth::{self, Material, SceneOptions, Shape, ShapeKind};
+
+const SIZE: usize = 64;
+
+fn tmp(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("light-files")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A Lambertian blob under 12 lights, written as a DiLiGenT dataset `tmp(name)`.
+fn dataset(name: &str) -> PathBuf {
+    let opts = SceneOptions {
+        width: SIZE,
+        height: SIZE,
+        shape: Shape::preset(ShapeKind::Blob, SIZE, SIZE),
+        material: Material::lambertian(0.8),
+        lights: synth::default_lights(12),
+        ..Default::default()
+    };
+    let s = synth::render(&opts).unwrap();
+    let dir = tmp(name);
+    io::write_dataset(&dir, &s.stack, &s.lights, Some(&s.mask), 16).unwrap();
+    dir
+}
+
+fn photostereo(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_photostereo"))
+        .arg("--quiet")
+        .args(args)
+        .output()
+        .expect("start photostereo");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn run_lambertian(data: &Path, out: &Path, extra: &[&str]) -> (bool, String) {
+    let mut args = vec!["run", "--lambertian"];
+    args.extend(extra);
+    args.extend([data.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    photostereo(&args)
+}
+
+fn normals(out: &Path) -> Vec<f32> {
+    io::read_normals_npy(&out.join("normals.npy"))
+        .unwrap()
+        .data
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+fn max_diff(a: &[f32], b: &[f32]) -> f32 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
+}
+
+/// The `.lp` text of `dir`'s lights: names as absolute Windows paths of another
+/// machine, lines in reverse order (the file says which image goes with which light).
+fn lp_text(dir: &Path) -> String {
+    let lights = io::read_lights(&dir.join("light_directions.txt")).unwrap();
+    let k = lights.len();
+    let mut s = format!("{k}\n");
+    for i in (0..k).rev() {
+        let d = lights.directions[i];
+        s += &format!(
+            "C:\\captures\\dome 3\\{:03}.png {:.9} {:.9} {:.9}\n",
+            i + 1,
+            d[0],
+            d[1],
+            d[2]
+        );
+    }
+    s
+}
+
+#[test]
+fn an_lp_file_gives_the_normals_of_light_directions_txt() {
+    let data = dataset("lp");
+    let reference = tmp("lp-ref-out");
+    let (ok, err) = run_lambertian(&data, &reference, &[]);
+    assert!(ok, "{err}");
+    let want = normals(&reference);
+
+    // a dataset whose lights are only in an .lp file: no filenames.txt either
+    let lp = lp_text(&data);
+    std::fs::write(data.join("capture.lp"), &lp).unwrap();
+    let lights_txt = data.with_extension("lights.txt");
+    std::fs::rename(data.join("light_directions.txt"), &lights_txt).unwrap();
+    std::fs::remove_file(data.join("filenames.txt")).unwrap();
+    let out = tmp("lp-out");
+    let (ok, err) = run_lambertian(&data, &out, &[]);
+    assert!(ok, "{err}");
+    let d = max_diff(&normals(&out), &want);
+    println!(".lp in the dataset folder: max normal component difference {d:e}");
+    assert!(d < 1e-4, "{d}");
+
+    // the same file given with --lights, from elsewhere
+    let given = data.with_extension("given.lp");
+    std::fs::rename(data.join("capture.lp"), &given).unwrap();
+    let out = tmp("lp-given-out");
+    let (ok, err) = run_lambertian(&data, &out, &["--lights", given.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let d = max_diff(&normals(&out), &want);
+    println!("--lights FILE.lp: max normal component difference {d:e}");
+    assert!(d < 1e-4, "{d}");
+}
+
+#[test]
+fn alicevision_lights_json_gives_the_same_normals() {
+    let data = dataset("json");
+    let reference = tmp("json-ref-out");
+    let (ok, err) = run_lambertian(&data, &reference, &[]);
+    assert!(ok, "{err}");
+    let lights = io::read_lights(&data.join("light_directions.txt")).unwrap();
+    let entries: Vec<String> = lights
+        .directions
+        .iter()
+        .enumerate()
+        .map(|(i, d)| {
+            format!(
+                "{{\"lightId\": {i}, \"intensity\": [1.0, 1.0, 1.0], \"direction\": [{}, {}, {}]}}",
+                d[0], d[1], d[2]
+            )
+        })
+        .collect();
+    let json = format!("{{\"lights\": [{}]}}", entries.join(",\n"));
+    std::fs::remove_file(data.join("light_directions.txt")).unwrap();
+    std::fs::write(data.join("lights.json"), json).unwrap();
+    let out = tmp("json-out");
+    let (ok, err) = run_lambertian(&data, &out, &[]);
+    assert!(ok, "{err}");
+    let d = max_diff(&normals(&out), &normals(&reference));
+    println!("lights.json: max normal component difference {d:e}");
+    assert!(d < 1e-4, "{d}");
+}
+
+#[test]
+fn bad_lp_files_are_refused_naming_the_file_and_the_fix() {
+    let data = dataset("lp-bad");
+    let good = lp_text(&data);
+    std::fs::remove_file(data.join("light_directions.txt")).unwrap();
+    std::fs::remove_file(data.join("filenames.txt")).unwrap();
+    let lp = data.join("dome.lp");
+    let mut lines: Vec<String> = good.lines().map(str::to_string).collect();
+    let cases: Vec<(String, &[&str])> = vec![
+        // the count disagrees with the lines
+        (
+            format!("13\n{}", lines[1..].join("\n")),
+            &["dome.lp", "13", "12"],
+        ),
+        // a zero vector
+        (
+            {
+                lines[3] = "C:\\captures\\x\\010.png 0 0 0".into();
+                lines.join("\n")
+            },
+            &["dome.lp", "line 4", "zero-length"],
+        ),
+        // a named image that is not there
+        (
+            good.replace("\\007.png", "\\107.png"),
+            &["107.png", "not found", "dome.lp"],
+        ),
+        // not a count
+        (
+            good.replacen("12\n", "twelve\n", 1),
+            &["dome.lp", "line 1", "number of images"],
+        ),
+    ];
+    for (i, (text, words)) in cases.iter().enumerate() {
+        std::fs::write(&lp, text).unwrap();
+        let out = tmp(&format!("lp-bad-out-{i}"));
+        let (ok, err) = run_lambertian(&data, &out, &[]);
+        assert!(!ok, "case {i} accepted");
+        for w in *words {
+            assert!(err.contains(w), "case {i}: no `{w}` in: {err}");
+        }
+        assert!(!out.join("run.json").exists(), "case {i}: partial output");
+    }
+    // a --lights file named but missing
+    std::fs::write(&lp, &good).unwrap();
+    let out = tmp("lp-bad-missing");
+    let (ok, err) = run_lambertian(&data, &out, &["--lights", "/nonexistent/x.lp"]);
+    assert!(
+        !ok && err.contains("/nonexistent/x.lp") && err.contains(".lp"),
+        "{err}"
+    );
+}
