@@ -51,6 +51,7 @@ pub mod lightcal;
 pub mod limits;
 pub mod lut;
 pub mod mesh;
+pub mod picture;
 pub mod pipeline;
 pub mod progress;
 pub mod report;

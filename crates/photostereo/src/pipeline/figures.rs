@@ -41,14 +41,14 @@ pub fn masked_mean(img: &GrayImage, mask: &Mask) -> f32 {
 }
 
 /// What the pictures `albedo.png` and `depth.png` (and the report's) show: the albedo's
-/// white level and the depth's colour range ([`crate::report::raster::albedo_picture`],
-/// [`crate::report::raster::depth_picture`]).
+/// white level and the depth's colour range ([`crate::picture::albedo_picture`],
+/// [`crate::picture::depth_picture`]).
 pub(super) fn picture_rows(
     job: &Job,
     albedo: Option<&GrayImage>,
     depth: &DepthMap,
 ) -> Vec<(String, String)> {
-    use crate::report::raster;
+    use crate::picture as raster;
     let mask = Some(&job.mask);
     let mut f = Vec::new();
     if let Some(a) = albedo {

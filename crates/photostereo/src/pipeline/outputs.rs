@@ -8,7 +8,8 @@ use serde_json::{json, Value};
 use super::figures::run_json;
 use super::{Job, Normals, Output};
 use crate::error::Result;
-use crate::report::{raster, raster::ColorMap, Report, Section};
+use crate::picture::{self as raster, ColorMap};
+use crate::report::{Report, Section};
 use crate::{io, mesh, sphere};
 
 /// The title (the dataset's name) and subtitle (how it was solved) of a report.
@@ -139,7 +140,7 @@ fn write_sides(out: &Path, job: &Job, p: &Output) -> Result<Vec<&'static str>> {
 }
 
 fn overlay_png(det: &sphere::Detection) -> Result<Vec<u8>> {
-    crate::report::raster::encode_png(&sphere::overlay(&det.max_image, &det.circle))
+    crate::picture::encode_png(&sphere::overlay(&det.max_image, &det.circle))
 }
 
 /// The HTML report of a job (`stages`: every timing to list, in order).

@@ -3,9 +3,9 @@
 use base64::Engine as _;
 use std::fmt::Write as _;
 
-use super::raster::{self, Rgb};
 use super::{viewer, Figure, Legend, Picture, Report, Section};
 use crate::error::Result;
+use crate::picture::{self as raster, Rgb};
 
 /// No network at all: only inline scripts/styles and `data:` URLs.
 const CSP: &str = "default-src 'none'; script-src 'unsafe-inline' data:; \

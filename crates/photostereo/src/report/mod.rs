@@ -26,12 +26,12 @@
 
 mod html;
 mod polar;
-pub mod raster;
+pub use crate::picture as raster;
 pub mod viewer;
 
 use crate::error::{Error, Result};
 use crate::image::{DepthMap, GrayImage, ImageStack, Mask, NormalMap};
-use raster::{ColorMap, Rgb};
+use crate::picture::{ColorMap, Rgb};
 pub use viewer::{MeshParts, ViewerMesh, MAX_TRIANGLES};
 
 /// Largest side, in pixels, of a map embedded in the report (larger maps are box-averaged).

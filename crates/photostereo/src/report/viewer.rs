@@ -15,7 +15,7 @@ use base64::Engine as _;
 
 use crate::error::{Error, Result};
 use crate::image::{DepthMap, GrayImage};
-use crate::report::raster::quantile;
+use crate::picture::quantile;
 
 /// Most triangles a report embeds; larger surfaces are meshed with a coarser stride.
 pub const MAX_TRIANGLES: usize = 250_000;

@@ -2,6 +2,7 @@
 
 use super::Circle;
 use crate::image::{GrayImage, Image};
+use crate::picture::{png_bytes, Deflate};
 
 /// The maximum image (contrast-stretched: v ↦ ln(1 + 200 v/w)/ln(201) with w its
 /// 99.5th percentile, so that dim rims of dark spheres stay visible) as RGB, with the circle
@@ -58,21 +59,8 @@ fn percentile(values: &[f32], p: f64) -> f32 {
 /// Encode an RGB picture (such as an [`overlay`]) as PNG bytes, for
 /// `io::write_bytes` (the library itself writes no files outside `io`).
 pub fn encode_png(img: &Image<[u8; 3]>) -> crate::Result<Vec<u8>> {
-    use image::ImageEncoder;
-    let mut out = Vec::new();
     let raw: Vec<u8> = img.data.iter().flatten().copied().collect();
-    image::codecs::png::PngEncoder::new(&mut out)
-        .write_image(
-            &raw,
-            img.width as u32,
-            img.height as u32,
-            image::ExtendedColorType::Rgb8,
-        )
-        .map_err(|e| {
-            crate::Error::invalid(
-                format!("overlay picture {}x{}", img.width, img.height),
-                format!("PNG encoding failed: {e}"),
-            )
-        })?;
-    Ok(out)
+    png_bytes::<image::Rgb<u8>>(img.width, img.height, raw, Deflate::Default).map_err(|e| {
+        crate::Error::invalid(format!("overlay picture {}x{}", img.width, img.height), e)
+    })
 }

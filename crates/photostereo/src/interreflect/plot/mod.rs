@@ -11,6 +11,7 @@
 use super::nik::NikOutput;
 use crate::error::{Error, Result};
 use crate::image::{DepthMap, Mask};
+use crate::picture::{png_bytes, Deflate};
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::prelude::*;
 use std::sync::OnceLock;
@@ -335,12 +336,8 @@ fn log_tick(v: f64) -> String {
 }
 
 fn encode_png(rgb: &[u8], w: usize, h: usize) -> Result<Vec<u8>> {
-    use image::ImageEncoder;
-    let mut out = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut out)
-        .write_image(rgb, w as u32, h as u32, image::ExtendedColorType::Rgb8)
-        .map_err(|e| Error::invalid("plot", format!("PNG encoding failed: {e}")))?;
-    Ok(out)
+    png_bytes::<image::Rgb<u8>>(w, h, rgb.to_vec(), Deflate::Default)
+        .map_err(|e| Error::invalid("plot", e))
 }
 
 /// Colour of iterate `t` of `n`: light blue (shallow, raw) to dark blue (last).

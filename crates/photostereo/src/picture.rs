@@ -1,4 +1,6 @@
-//! Pictures for the report: maps turned into 8-bit RGB and encoded as PNG in memory.
+//! Pictures for people: maps turned into 8-bit RGB, and the crate's one PNG encoder
+//! ([`png_bytes`]: the report's pictures, the sphere overlay, the plots and the PNG
+//! files of [`crate::io`]).
 //!
 //! * normals: c = (n + 1)/2 per channel (the README's convention), unknown pixels grey;
 //! * scalar maps (albedo, confidence, errors): linear grey or a colour map between two
@@ -80,6 +82,50 @@ impl ColorMap {
     }
 }
 
+/// How hard [`png_bytes`] compresses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Deflate {
+    /// The encoder's default level: pictures embedded in a report, overlays, plots.
+    Default,
+    /// Fast deflate: image files written by [`crate::io`] (previews of 2048² depth maps
+    /// were dominated by zlib's default level: files ~10-20% larger, written several
+    /// times faster).
+    Fast,
+}
+
+/// Encode `data`, row-major subpixels of pixel type `P`, as a `width` × `height` PNG
+/// (adaptive filtering). Errors: the reason, for the caller to name the picture.
+pub(crate) fn png_bytes<P>(
+    width: usize,
+    height: usize,
+    data: Vec<P::Subpixel>,
+    deflate: Deflate,
+) -> std::result::Result<Vec<u8>, String>
+where
+    P: image::Pixel + image::PixelWithColorType,
+    [P::Subpixel]: image::EncodableLayout,
+{
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    let (Ok(w), Ok(h)) = (u32::try_from(width), u32::try_from(height)) else {
+        return Err("PNG images must be smaller than 2^32 pixels on each side".into());
+    };
+    if w == 0 || h == 0 {
+        return Err("a PNG needs at least one pixel; nothing to write".into());
+    }
+    let buf = image::ImageBuffer::<P, Vec<P::Subpixel>>::from_raw(w, h, data)
+        .ok_or_else(|| format!("{width}x{height} pixels need more data than given"))?;
+    let mut out = Vec::new();
+    let encoder = match deflate {
+        Deflate::Default => PngEncoder::new(&mut out),
+        Deflate::Fast => {
+            PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Adaptive)
+        }
+    };
+    buf.write_with_encoder(encoder)
+        .map_err(|e| format!("PNG encoding failed: {e}"))?;
+    Ok(out)
+}
+
 /// Encode an RGB raster as PNG bytes.
 pub fn encode_png(img: &Rgb) -> Result<Vec<u8>> {
     if img.width == 0 || img.height == 0 {
@@ -89,12 +135,8 @@ pub fn encode_png(img: &Rgb) -> Result<Vec<u8>> {
         ));
     }
     let flat: Vec<u8> = img.data.iter().flatten().copied().collect();
-    let buf = image::RgbImage::from_raw(img.width as u32, img.height as u32, flat)
-        .ok_or_else(|| Error::invalid("report picture buffer", "width*height*3 bytes"))?;
-    let mut out = std::io::Cursor::new(Vec::new());
-    buf.write_to(&mut out, image::ImageFormat::Png)
-        .map_err(|e| Error::invalid(format!("PNG encoding of a report picture: {e}"), "none"))?;
-    Ok(out.into_inner())
+    png_bytes::<image::Rgb<u8>>(img.width, img.height, flat, Deflate::Default)
+        .map_err(|e| Error::invalid("report picture", e))
 }
 
 /// The `q`-quantile (0..1) of the finite values, or `None` when there is none.
