@@ -54,6 +54,7 @@ pub mod mesh;
 pub mod picture;
 pub mod pipeline;
 pub mod progress;
+#[cfg(feature = "report")]
 pub mod report;
 pub mod spatial;
 pub mod sphere;

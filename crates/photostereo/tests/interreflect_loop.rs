@@ -5,9 +5,9 @@ mod interreflect_common;
 
 use interreflect_common::{bowl, direct, sample};
 use photostereo::image::{GrayImage, ImageStack, Mask};
-use photostereo::interreflect::{
-    convergence_plot_png, iterate, profile_plot_png, Convergence, NikOptions, Reconstruction,
-};
+#[cfg(feature = "report")]
+use photostereo::interreflect::{convergence_plot_png, profile_plot_png};
+use photostereo::interreflect::{iterate, Convergence, NikOptions, Reconstruction};
 use photostereo::progress::NoProgress;
 use std::cell::Cell;
 
@@ -84,6 +84,7 @@ fn a_growing_change_is_flagged_as_oscillation() {
     assert_eq!(c, Convergence::MaxIterations { oscillating: true });
 }
 
+#[cfg(feature = "report")]
 #[test]
 fn plots_are_png_images_of_the_stated_size() {
     let (out, mask) = oscillating_run(3);

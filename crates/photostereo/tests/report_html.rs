@@ -1,5 +1,6 @@
 //! The HTML report is one self-contained page whose pictures and mesh decode back to the
 //! data that went in.
+#![cfg(feature = "report")]
 
 use base64::Engine as _;
 use photostereo::image::{gradient_to_normal, pixel_to_xy, Image, Mask};

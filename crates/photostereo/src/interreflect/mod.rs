@@ -23,6 +23,7 @@
 pub mod facets;
 pub mod kernel;
 pub mod nik;
+#[cfg(feature = "report")]
 pub mod plot;
 pub mod radiosity;
 pub mod scene;
@@ -30,6 +31,7 @@ pub mod scene;
 pub use facets::auto_block;
 pub use kernel::{Kernel, KernelOptions};
 pub use nik::{iterate, solve, Convergence, Iterate, NikOptions, NikOutput, Reconstruction};
+#[cfg(feature = "report")]
 pub use plot::{convergence_plot_png, profile_plot_png};
 pub use radiosity::{Model, Rendered};
 pub use scene::{render_with_interreflections, render_with_interreflections_report, BounceReport};

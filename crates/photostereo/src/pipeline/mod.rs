@@ -36,6 +36,8 @@ mod checks;
 mod figures;
 mod load;
 mod outputs;
+#[cfg(feature = "report")]
+mod report_page;
 mod spatial_stage;
 mod stages;
 mod timer;
@@ -48,7 +50,9 @@ use crate::{eval, integrate, interreflect, lambertian, lut, mesh, spatial, spher
 pub use checks::NEIGHBOURS_WARN;
 pub use figures::{depth_range, masked_mean, run_json, warnings, LOW_CONFIDENCE};
 pub use load::{load, radiance_scale, run, scale_is_known, Inputs, Loaded, Run};
-pub use outputs::{build_report, write_outputs, Titles, Written};
+pub use outputs::{write_outputs, Titles, Written};
+#[cfg(feature = "report")]
+pub use report_page::build_report;
 
 /// A calibration made beforehand: the lookup table and, when known, the sphere
 /// detection it was built from (for the report's circle figure and overlay).

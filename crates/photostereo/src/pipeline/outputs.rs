@@ -8,8 +8,7 @@ use serde_json::{json, Value};
 use super::figures::run_json;
 use super::{Job, Normals, Output};
 use crate::error::Result;
-use crate::picture::{self as raster, ColorMap};
-use crate::report::{Report, Section};
+use crate::picture as raster;
 use crate::{io, mesh, sphere};
 
 /// The title (the dataset's name) and subtitle (how it was solved) of a report.
@@ -25,7 +24,7 @@ pub struct Titles {
 /// names of the files written (`files`) and of the stale ones removed (`stale_removed`).
 #[derive(Clone, Debug)]
 pub struct Written {
-    /// The path of `report.html`.
+    /// The path of `report.html` (of `run.json` without the `report` feature).
     pub report: PathBuf,
     /// The contents of `run.json`.
     pub json: Value,
@@ -35,10 +34,11 @@ pub struct Written {
 /// `albedo.npy/png`, `confidence.npy/png`, `normals_sigma.npy/png` and `own_share.npy`
 /// (spatial stage), `depth.npy/png`, `mesh.ply`,
 /// `sphere_overlay.png`, `lights.txt` (Lambertian), `chrome_overlay.png` (lights from a
-/// chrome sphere), `convergence.csv` and plots (those the run has), `report.html` and
-/// `run.json`. `albedo.png` and `depth.png` are the report's pictures
-/// ([`raster::albedo_picture`], [`raster::depth_picture`]; their ranges are figure rows).
-/// `extra_stages` (e.g. loading) come before the pipeline's own stages in the timings.
+/// chrome sphere), `convergence.csv` and plots (those the run has), `report.html` (with
+/// the `report` feature) and `run.json`. `albedo.png` and `depth.png` are the report's
+/// pictures ([`raster::albedo_picture`], [`raster::depth_picture`]; their ranges are
+/// figure rows). `extra_stages` (e.g. loading) come before the pipeline's own stages in
+/// the timings.
 ///
 /// When `out` holds an earlier run's outputs, those this run does not write (another
 /// mode's `confidence.*`, `sphere_overlay.png`, ...) are removed once the new ones are
@@ -53,21 +53,31 @@ pub fn write_outputs(
 ) -> Result<Written> {
     let earlier = io::previous_run_files(out);
     let mut files = write_maps(out, job, p)?;
-    files.extend(["report.html", "run.json"]);
+    if cfg!(feature = "report") {
+        files.push("report.html");
+    }
+    files.push("run.json");
     let stale: Vec<String> = earlier
         .into_iter()
         .filter(|f| !files.contains(&f.as_str()))
         .collect();
     let mut stages: Vec<(String, f64)> = extra_stages.to_vec();
     stages.extend(p.stages.iter().cloned());
-    let report = out.join("report.html");
-    let html = build_report(titles, job, p, &stages)?;
-    io::write_text(&report, &html)?;
+    #[cfg(feature = "report")]
+    let report = {
+        let report = out.join("report.html");
+        let html = super::report_page::build_report(titles, job, p, &stages)?;
+        io::write_text(&report, &html)?;
+        report
+    };
     let mut json = run_json(&titles.title, p, &stages);
     json["files"] = json!(files);
     json["stale_removed"] = json!(stale);
-    io::write_text(&out.join("run.json"), &json.to_string())?;
+    let json_path = out.join("run.json");
+    io::write_text(&json_path, &json.to_string())?;
     io::remove_files(out, &stale)?;
+    #[cfg(not(feature = "report"))]
+    let report = json_path;
     Ok(Written { report, json })
 }
 
@@ -139,115 +149,6 @@ fn write_sides(out: &Path, job: &Job, p: &Output) -> Result<Vec<&'static str>> {
     Ok(files)
 }
 
-fn overlay_png(det: &sphere::Detection) -> Result<Vec<u8>> {
+pub(super) fn overlay_png(det: &sphere::Detection) -> Result<Vec<u8>> {
     crate::picture::encode_png(&sphere::overlay(&det.max_image, &det.circle))
-}
-
-/// The HTML report of a job (`stages`: every timing to list, in order).
-pub fn build_report(
-    titles: &Titles,
-    job: &Job,
-    p: &Output,
-    stages: &[(String, f64)],
-) -> Result<String> {
-    let mask = Some(&job.mask);
-    let mut r = Report::new(&titles.title);
-    r.subtitle(&titles.subtitle);
-    for w in &p.warnings {
-        r.warning(w);
-    }
-    r.inputs(&job.target);
-    r.surface(&p.depth, p.albedo.as_ref())?;
-    r.normals(&p.normals, mask)?;
-    if let Some(a) = &p.albedo {
-        r.albedo(a, mask)?;
-    }
-    if let Some(c) = &p.confidence {
-        r.scalar("confidence", c, mask, ColorMap::Viridis)?;
-    }
-    if let Some(sigma) = &p.normals_sigma {
-        let caption = "angular standard error of the normals from their own data (°)";
-        r.scalar(caption, sigma, mask, ColorMap::Viridis)?;
-    }
-    if let Some(s) = &p.own_share {
-        let caption =
-            "spatial stage: share of each pixel's own data (0 = decided by its neighbours)";
-        r.scalar(caption, s, mask, ColorMap::Viridis)?;
-    }
-    r.depth(&p.depth);
-    if let Some(det) = &p.circle {
-        r.png(
-            Section::Maps,
-            "calibration sphere: circle found",
-            overlay_png(det)?,
-        )?;
-    }
-    if let Normals::Lambertian { lights } = &job.normals {
-        r.lights("light directions seen from the camera (lights.txt)", lights);
-    }
-    if let Some(det) = &p.chrome {
-        r.png(
-            Section::Lights,
-            "chrome sphere: circle found (chrome_overlay.png)",
-            overlay_png(det)?,
-        )?;
-    }
-    error_maps(&mut r, job, p)?;
-    if let Some(ir) = &p.interreflections {
-        for (name, png) in &ir.plots {
-            r.png(
-                Section::Interreflections,
-                &name.replace(".png", ""),
-                png.clone(),
-            )?;
-        }
-    }
-    for (k, v) in &p.figures {
-        r.figure(k, v);
-    }
-    for (k, s) in stages {
-        r.figure(format!("time: {k}"), format!("{s:.2} s"));
-    }
-    r.to_html()
-}
-
-fn error_maps(r: &mut Report, job: &Job, p: &Output) -> Result<()> {
-    let mask = Some(&job.mask);
-    if let Some((st, map)) = &p.accuracy.angular {
-        let max = (st.mean * 4.0).clamp(1.0, 30.0) as f32;
-        r.error_map(
-            "angular error of the normals",
-            map,
-            mask,
-            max.round().max(1.0),
-            "°",
-        )?;
-    }
-    if let Some((st, map)) = &p.accuracy.depth {
-        let abs = map.map(|v| v.abs());
-        let max = (st.rmse * 3.0).max(0.01) as f32;
-        r.error_map(
-            "|depth error| after offset",
-            &abs,
-            mask,
-            round_nice(max),
-            "px",
-        )?;
-    }
-    Ok(())
-}
-
-fn round_nice(x: f32) -> f32 {
-    let e = 10f32.powf(x.log10().floor());
-    let m = x / e;
-    let n = if m <= 1.0 {
-        1.0
-    } else if m <= 2.0 {
-        2.0
-    } else if m <= 5.0 {
-        5.0
-    } else {
-        10.0
-    };
-    n * e
 }

@@ -194,17 +194,7 @@ fn nik(
     let mut nik_opts = opts.nik.clone();
     nik_opts.integrate.method = method;
     let out = interreflect::solve(&job.target, mask, lights, &nik_opts, progress)?;
-    let row = interreflect::plot::middle_row(mask).unwrap_or(mask.height / 2);
-    let plots = vec![
-        (
-            "profiles.png".to_string(),
-            interreflect::profile_plot_png(&out, mask, row, truth)?,
-        ),
-        (
-            "convergence.png".to_string(),
-            interreflect::convergence_plot_png(&out)?,
-        ),
-    ];
+    let plots = nik_plots(&out, mask, truth)?;
     let best = out.best_shape().clone();
     let ir = Interreflections {
         summary: out.summary(),
@@ -224,6 +214,36 @@ fn nik(
         spatial: None,
     };
     Ok((ir, est))
+}
+
+/// The NIK run's plots (profiles along the middle row, convergence) as PNG bytes.
+#[cfg(feature = "report")]
+fn nik_plots(
+    out: &interreflect::NikOutput,
+    mask: &Mask,
+    truth: Option<&DepthMap>,
+) -> Result<Vec<(String, Vec<u8>)>> {
+    let row = interreflect::plot::middle_row(mask).unwrap_or(mask.height / 2);
+    Ok(vec![
+        (
+            "profiles.png".to_string(),
+            interreflect::profile_plot_png(out, mask, row, truth)?,
+        ),
+        (
+            "convergence.png".to_string(),
+            interreflect::convergence_plot_png(out)?,
+        ),
+    ])
+}
+
+/// No plots without the `report` feature (plotters and its font are left out).
+#[cfg(not(feature = "report"))]
+fn nik_plots(
+    _out: &interreflect::NikOutput,
+    _mask: &Mask,
+    _truth: Option<&DepthMap>,
+) -> Result<Vec<(String, Vec<u8>)>> {
+    Ok(Vec::new())
 }
 
 /// Angular error of the normals and depth error after the best offset, where the job
