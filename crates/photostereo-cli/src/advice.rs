@@ -32,6 +32,7 @@ fn setting_flag(setting: Setting) -> Option<&'static str> {
         Setting::Circle => "--circle cx,cy,r gives the circle by hand (pixels)",
         Setting::SphereSearch => "give the sphere's mask with --sphere-mask FILE",
         Setting::FacetBlock => "give a larger --block (pixels)",
+        Setting::Memory => "set the budget with --memory SIZE (e.g. --memory 8G)",
         _ => return None,
     })
 }

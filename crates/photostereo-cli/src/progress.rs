@@ -53,6 +53,14 @@ fn worth_a_line(done: u64, total: u64, last: u64, since_last_s: f64) -> bool {
     done / tenth > last / tenth && since_last_s >= 1.0
 }
 
+/// Seconds left at `done` of `total` steps after `spent` seconds, at the pace so far.
+fn time_left(spent: f64, done: u64, total: u64) -> f64 {
+    if done == 0 {
+        return f64::NAN;
+    }
+    spent * total.saturating_sub(done) as f64 / done as f64
+}
+
 impl Progress for Bar {
     fn start(&self, message: &str, total: u64) {
         if self.quiet {
@@ -75,9 +83,11 @@ impl Progress for Bar {
         }
         let bar = ProgressBar::new(total);
         bar.set_style(
-            ProgressStyle::with_template("{msg:>24} [{bar:30}] {pos}/{len} {elapsed_precise}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar())
-                .progress_chars("=> "),
+            ProgressStyle::with_template(
+                "{msg:>24} [{bar:30}] {pos}/{len} {elapsed_precise} ({eta} left)",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
         );
         bar.set_message(message.to_string());
         if let Ok(mut slot) = self.bar.lock() {
@@ -94,12 +104,13 @@ impl Progress for Bar {
                     p.done += steps;
                     let since = p.last_line.elapsed().as_secs_f64();
                     if worth_a_line(p.done, p.total, p.last_logged, since) {
+                        let spent = p.started.elapsed().as_secs_f64();
                         eprintln!(
-                            "{}: {}/{} ({:.1} s)",
+                            "{}: {}/{} ({spent:.1} s, about {:.0} s left)",
                             p.message,
                             p.done,
                             p.total,
-                            p.started.elapsed().as_secs_f64()
+                            time_left(spent, p.done, p.total)
                         );
                         p.last_logged = p.done;
                         p.last_line = Instant::now();
@@ -156,7 +167,15 @@ impl Progress for Bar {
 
 #[cfg(test)]
 mod tests {
-    use super::worth_a_line;
+    use super::{time_left, worth_a_line};
+
+    #[test]
+    fn time_left_is_the_pace_so_far() {
+        // 3 of 12 bands in 30 s: 90 s left
+        assert_eq!(time_left(30.0, 3, 12), 90.0);
+        assert_eq!(time_left(30.0, 12, 12), 0.0);
+        assert!(time_left(5.0, 0, 12).is_nan());
+    }
 
     #[test]
     fn short_loops_log_every_step_long_ones_every_tenth() {

@@ -121,6 +121,8 @@ pub enum Setting {
     SphereSearch,
     /// The side (pixels) of the facet blocks of the interreflection model.
     FacetBlock,
+    /// The memory budget of a run (bytes; [`crate::plan`]).
+    Memory,
 }
 
 impl Error {

@@ -53,6 +53,7 @@ pub mod lut;
 pub mod mesh;
 pub mod picture;
 pub mod pipeline;
+pub mod plan;
 pub mod progress;
 #[cfg(feature = "report")]
 pub mod report;

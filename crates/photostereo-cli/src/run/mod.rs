@@ -97,6 +97,16 @@ pub struct Args {
     /// (Edge pixels on the image border never count as contour.)
     #[arg(long)]
     pub no_contour: bool,
+    /// Memory budget, e.g. 1.5G or 800M (binary units). The images are read by row
+    /// bands sized to keep the run within it (the plan is printed first); a capture that
+    /// cannot fit stops before any pixel is read, saying how much it needs. Default:
+    /// half of the machine's memory. Not used with --interreflections (whole stack).
+    #[arg(long, value_name = "SIZE", value_parser = parse_memory)]
+    pub memory: Option<u64>,
+}
+
+fn parse_memory(text: &str) -> std::result::Result<u64, String> {
+    photostereo::plan::parse_size(text).map_err(|e| e.to_string())
 }
 
 /// Run the subcommand.
@@ -169,6 +179,7 @@ fn options(args: &Args) -> Result<pipeline::Options> {
         sp.contour_sigma = None;
     }
     opts.nik.radiosity.block = args.block.unwrap_or(0);
+    opts.memory = args.memory;
     opts.lookup.normalize = args.normalize;
     opts.detect.circle = args.circle;
     opts.detect.region = args.sphere_region;

@@ -180,6 +180,15 @@ fn write_temp(tmp: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Re
     file.sync_all().map_err(|e| Error::io(tmp, e))
 }
 
+/// The machine's memory in bytes (`MemTotal` of `/proc/meminfo`); `None` where that is
+/// not known (not Linux).
+pub fn system_memory() -> Option<u64> {
+    let text = fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
 /// Write a text file atomically.
 pub fn write_text(path: &Path, text: &str) -> Result<()> {
     write_bytes(path, text.as_bytes())

@@ -171,7 +171,14 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
 }
 
 /// The whole job: [`load`], [`super::solve`], [`super::write_outputs`] into `out`.
+///
+/// Without interreflection removal (a global iteration on the whole stack) the target's
+/// images are read by row bands within the memory budget [`Options::memory`]
+/// ([`crate::plan`]); the results are those of [`load`] and [`super::solve`].
 pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress) -> Result<Run> {
+    if !opts.interreflections {
+        return super::banded::run(inputs, out, opts, progress);
+    }
     let loaded = load(inputs, opts, progress)?;
     let mut opts = opts.clone();
     opts.nik.scale_known |= loaded.scale_known;
@@ -198,7 +205,7 @@ pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress)
     })
 }
 
-fn check(inputs: &Inputs, opts: &Options) -> Result<()> {
+pub(super) fn check(inputs: &Inputs, opts: &Options) -> Result<()> {
     let ways = usize::from(inputs.sphere.is_some())
         + usize::from(inputs.calibration.is_some())
         + usize::from(inputs.lambertian);
@@ -255,7 +262,7 @@ pub fn scale_is_known(dir: &Path, given: Option<f32>, use_meta: bool) -> Result<
 
 /// Light directions for `k` images: the `lights` file, the `chrome` calibration (with the
 /// sphere's detection and its mirror check), or the dataset's own.
-fn lights(
+pub(super) fn lights(
     inputs: &Inputs,
     from_dataset: Option<Lights>,
     names: &[String],
@@ -323,7 +330,7 @@ fn chrome_lights(
     Ok((lights, det, mirror))
 }
 
-fn subtitle(inputs: &Inputs, opts: &Options) -> String {
+pub(super) fn subtitle(inputs: &Inputs, opts: &Options) -> String {
     let ir = if opts.interreflections {
         ", interreflections removed"
     } else {

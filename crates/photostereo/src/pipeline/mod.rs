@@ -32,6 +32,7 @@
 //! one new field of [`Options`] (with its default in `Options::default`) and adds its
 //! rows to [`Output::figures`].
 
+mod banded;
 mod checks;
 mod figures;
 mod load;
@@ -129,6 +130,15 @@ pub struct Options {
     /// computed). Not used with interreflection removal. Default on, with
     /// `spatial::Options::default()`.
     pub spatial: Option<spatial::Options>,
+    /// Memory budget of a run from paths ([`run`]), bytes: the target's images are read
+    /// by row bands that keep the run within it ([`crate::plan`]); a capture that
+    /// cannot fit is refused before any pixel is read. `None` = half of the machine's
+    /// memory ([`crate::plan::default_budget`]).
+    pub memory: Option<u64>,
+    /// At most this many image rows per band in a run from paths (`None` = as many as
+    /// the memory budget allows). Smaller bands give finer progress; results do not
+    /// depend on it.
+    pub max_band_rows: Option<usize>,
 }
 
 // Written out (not derived) so that every new option states its default here.
@@ -144,6 +154,8 @@ impl Default for Options {
             lambertian: lambertian::Options::default(),
             nik: interreflect::NikOptions::default(),
             spatial: Some(spatial::Options::default()),
+            memory: None,
+            max_band_rows: None,
         }
     }
 }
@@ -237,7 +249,21 @@ pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Outpu
     let method = opts
         .method
         .unwrap_or_else(|| integrate::choose_method(&job.mask));
-    let (est, circle, ir) = stages::normals(&mut st, job, opts, method)?;
+    let normals = stages::normals(&mut st, job, opts, method)?;
+    finish(st, job, opts, method, normals)
+}
+
+/// The stages after the normals: integration (unless NIK made the depth), mesh,
+/// accuracy, and the figures and warnings of the output.
+fn finish(
+    mut st: timer::Stages,
+    job: &Job,
+    opts: &Options,
+    method: integrate::Method,
+    (est, circle, ir): stages::NormalsResult,
+) -> Result<Output> {
+    let progress = st.progress();
+    let has_truth = job.truth.normals.is_some() || job.truth.depth.is_some();
     let auto = opts.method.is_none();
     let (depth, cuts, method, why) = match est.depth.clone() {
         Some(d) => (d, None, method, None),

@@ -26,7 +26,7 @@ pub(super) struct SpatialInfo {
 }
 
 /// The stage's name in the timings.
-fn name(opts: &Options) -> &'static str {
+pub(super) fn name(opts: &Options) -> &'static str {
     if opts.spatial.is_some() {
         "spatial stage"
     } else {
@@ -105,7 +105,7 @@ pub(super) fn after_lambertian(
 
 /// Take the spatial stage's normals into `est` (its confidence, where it has one, is
 /// multiplied by each pixel's own share) and return what the stage reports.
-fn adopt(est: &mut Estimate, noise: NoiseModel, sp: spatial::Output) -> SpatialInfo {
+pub(super) fn adopt(est: &mut Estimate, noise: NoiseModel, sp: spatial::Output) -> SpatialInfo {
     est.normals = sp.normals;
     est.confidence = est
         .confidence
@@ -119,7 +119,7 @@ fn adopt(est: &mut Estimate, noise: NoiseModel, sp: spatial::Output) -> SpatialI
     }
 }
 
-fn own_only(noise: NoiseModel, sigma: GrayImage) -> SpatialInfo {
+pub(super) fn own_only(noise: NoiseModel, sigma: GrayImage) -> SpatialInfo {
     SpatialInfo {
         noise,
         sigma,

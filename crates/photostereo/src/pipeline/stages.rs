@@ -19,7 +19,7 @@ pub(super) fn planned(normals: &Normals, interreflections: bool) -> usize {
     }
 }
 
-type NormalsResult = (
+pub(super) type NormalsResult = (
     Estimate,
     Option<sphere::Detection>,
     Option<Interreflections>,

@@ -21,6 +21,11 @@ impl<'a> Stages<'a> {
         }
     }
 
+    /// The progress the stages report to.
+    pub fn progress(&self) -> &'a dyn Progress {
+        self.progress
+    }
+
     /// Run stage `name`; its errors are wrapped with "stage 'name' failed".
     pub fn run<T>(&mut self, name: &str, f: impl FnOnce(&dyn Progress) -> Result<T>) -> Result<T> {
         let i = self.list.len() + 1;

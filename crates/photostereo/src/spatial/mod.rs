@@ -64,7 +64,7 @@ pub mod noise;
 mod solve;
 
 pub use info::{angular_sigma_deg, Evidence, MAX_SIGMA_DEG};
-pub use noise::NoiseModel;
+pub use noise::{NoiseModel, NoiseSampler};
 
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, ImageStack, Mask, NormalMap};
@@ -203,21 +203,50 @@ pub fn solve_lookup(
 ) -> Result<Output> {
     let level = opts.shadow_level;
     let ev = info::from_table(stack, mask, table, normals, albedo, noise, level);
+    solve_relinearised(ev, mask, opts, |normals, far, ev| {
+        let lin = info::linearise(stack, mask, table, normals, albedo, noise, level, far);
+        for (i, _) in far.iter().enumerate().filter(|(_, &f)| f) {
+            (ev.u[i], ev.a[i], ev.g[i]) = (lin.u[i], lin.a[i], lin.g[i]);
+        }
+        Ok(())
+    })
+}
+
+/// [`solve_lookup`] from the evidence of the lookup's matches (`ev`, from
+/// [`info::from_table`]) and a `relinearise(normals, far, ev)` that writes into `ev`
+/// (u, A and g) the costs of the `far` pixels linearised at `normals`
+/// ([`info::linearise`]), leaving the other pixels alone; for a capture read by row
+/// bands, which re-reads the bands that hold such pixels. The costs are swapped into
+/// `ev` in place, and the matches' quadratics of the few re-linearised pixels kept
+/// aside, so that no second H×W copy of the evidence is made.
+pub fn solve_relinearised(
+    mut ev: Evidence,
+    mask: &Mask,
+    opts: &Options,
+    mut relinearise: impl FnMut(&NormalMap, &[bool], &mut Evidence) -> Result<()>,
+) -> Result<Output> {
     let mut out = solve(&ev, mask, opts)?;
     let mut iterations = out.stats.iterations;
+    // (pixel, u, A) of the match of every pixel re-linearised by the last pass
+    let mut matches: Vec<(usize, [f32; 2], [f32; 3])> = Vec::new();
     for _ in 0..opts.passes {
+        for (i, u, a) in matches.drain(..) {
+            (ev.u[i], ev.a[i], ev.g[i]) = (u, a, [0.0; 2]);
+        }
         let far = outside_trust(&ev, mask, &out.normals, opts.trust);
         if !far.iter().any(|&f| f) {
             break;
         }
-        let lin = info::linearise(stack, mask, table, &out.normals, albedo, noise, level, &far);
-        let mut mixed = ev.clone();
-        mixed.g = vec![[0.0; 2]; ev.u.len()];
-        for (i, _) in far.iter().enumerate().filter(|(_, &f)| f) {
-            (mixed.u[i], mixed.a[i], mixed.g[i]) = (lin.u[i], lin.a[i], lin.g[i]);
+        let far_pixels = far.iter().enumerate().filter(|(_, &f)| f);
+        matches.extend(far_pixels.map(|(i, _)| (i, ev.u[i], ev.a[i])));
+        if ev.g.is_empty() {
+            ev.g = vec![[0.0; 2]; ev.u.len()];
         }
+        relinearise(&out.normals, &far, &mut ev)?;
+        drop(far);
         let x0: Vec<[f32; 2]> = out.normals.data.iter().map(|n| [n[0], n[1]]).collect();
-        out = solve_from(&mixed, mask, opts, Some(&x0))?;
+        drop(out);
+        out = solve_from(&ev, mask, opts, Some(&x0))?;
         iterations += out.stats.iterations;
     }
     out.stats.iterations = iterations;

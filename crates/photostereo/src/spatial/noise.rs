@@ -60,54 +60,124 @@ impl NoiseModel {
     /// Estimate the model from the `mask` pixels of `stack` (see the module docs).
     /// Returns a zero model when fewer than 100 pixels have a full 3×3 neighbourhood.
     pub fn estimate(stack: &ImageStack, mask: &Mask) -> NoiseModel {
-        let samples = residuals(stack, mask);
-        if samples.len() < 100 * stack.k.max(1) {
+        if (stack.width, stack.height) != (mask.width, mask.height) {
             return NoiseModel::constant(0.0);
         }
-        fit(samples)
+        let mut sampler = NoiseSampler::new(mask, stack.k);
+        sampler.feed(stack, 0);
+        sampler.finish()
     }
 }
 
-/// (3×3 mean, Immerkær residual) of the interior samples, subsampled to at most
-/// [`MAX_SAMPLES`].
-fn residuals(stack: &ImageStack, mask: &Mask) -> Vec<(f32, f32)> {
-    let (w, h, k) = (stack.width, stack.height, stack.k);
-    if w < 3 || h < 3 || mask.width != w || mask.height != h {
-        return Vec::new();
-    }
-    let inside = (1..h - 1)
-        .flat_map(|r| (1..w - 1).map(move |c| (r, c)))
-        .filter(|&(r, c)| (0..3).all(|i| (0..3).all(|j| *mask.get(r + i - 1, c + j - 1))))
-        .count();
-    let stride = (inside * k).div_ceil(MAX_SAMPLES).max(1);
-    const N: [[f32; 3]; 3] = [[1.0, -2.0, 1.0], [-2.0, 4.0, -2.0], [1.0, -2.0, 1.0]];
-    let mut out = Vec::with_capacity((inside * k / stride).min(MAX_SAMPLES) + 1);
-    let mut seen = 0usize;
-    for r in 1..h - 1 {
-        for c in 1..w - 1 {
-            if !(0..3).all(|i| (0..3).all(|j| *mask.get(r + i - 1, c + j - 1))) {
-                continue;
-            }
-            seen += 1;
-            if seen % stride != 0 {
-                continue;
-            }
-            for light in 0..k {
-                let (mut res, mut mean) = (0.0f32, 0.0f32);
-                for (i, row) in N.iter().enumerate() {
-                    for (j, &wgt) in row.iter().enumerate() {
-                        let v = stack.pixel(r + i - 1, c + j - 1)[light];
-                        res += wgt * v;
-                        mean += v;
-                    }
-                }
-                if res.is_finite() && mean.is_finite() {
-                    out.push((mean / 9.0, res.abs()));
-                }
-            }
+/// [`NoiseModel::estimate`] fed by row bands, top to bottom (a capture too large to
+/// hold whole): it keeps the last two rows of each band for the 3×3 neighbourhoods
+/// across band edges and takes the same samples in the same order, so the model is
+/// the one of the whole stack, bit for bit.
+#[derive(Clone, Debug)]
+pub struct NoiseSampler {
+    mask: Mask,
+    k: usize,
+    /// Every `stride`-th interior pixel is sampled (at most [`MAX_SAMPLES`] samples).
+    stride: usize,
+    /// Interior pixels seen so far, row-major.
+    seen: usize,
+    /// The next centre row to take.
+    next: usize,
+    /// The last rows fed (pixel-major), up to two, and the index of the first.
+    tail: (Vec<f32>, usize),
+    samples: Vec<(f32, f32)>,
+}
+
+impl NoiseSampler {
+    /// A sampler of the `mask` pixels of `k` images of the mask's size.
+    pub fn new(mask: &Mask, k: usize) -> Self {
+        let (w, h) = (mask.width, mask.height);
+        let interior =
+            |r: usize, c: usize| (0..3).all(|i| (0..3).all(|j| *mask.get(r + i - 1, c + j - 1)));
+        let inside = if w < 3 || h < 3 {
+            0
+        } else {
+            (1..h - 1)
+                .flat_map(|r| (1..w - 1).map(move |c| (r, c)))
+                .filter(|&(r, c)| interior(r, c))
+                .count()
+        };
+        let stride = (inside * k).div_ceil(MAX_SAMPLES).max(1);
+        NoiseSampler {
+            mask: mask.clone(),
+            k,
+            stride,
+            seen: 0,
+            next: 1,
+            tail: (Vec::new(), 0),
+            samples: Vec::with_capacity((inside * k / stride).min(MAX_SAMPLES) + 1),
         }
     }
-    out
+
+    /// Take the samples of the rows `row0..row0 + band.height` of the images (`band`
+    /// of the mask's width; bands fed in order, from the top, without gaps). A band of
+    /// another width or K is ignored, as `estimate` ignores a stack of the wrong size.
+    pub fn feed(&mut self, band: &ImageStack, row0: usize) {
+        let (w, h, k) = (self.mask.width, self.mask.height, self.k);
+        if band.width != w || band.k != k || w < 3 || h < 3 || band.height == 0 {
+            return;
+        }
+        let end = row0 + band.height;
+        let (tail, t0) = (&self.tail.0, self.tail.1);
+        let pixel = |r: usize, c: usize| -> &[f32] {
+            if r >= row0 {
+                band.pixel(r - row0, c)
+            } else {
+                let i = ((r - t0) * w + c) * k;
+                &tail[i..i + k]
+            }
+        };
+        const N: [[f32; 3]; 3] = [[1.0, -2.0, 1.0], [-2.0, 4.0, -2.0], [1.0, -2.0, 1.0]];
+        while self.next + 1 < end.min(h) {
+            let r = self.next;
+            for c in 1..w - 1 {
+                if !(0..3).all(|i| (0..3).all(|j| *self.mask.get(r + i - 1, c + j - 1))) {
+                    continue;
+                }
+                self.seen += 1;
+                if self.seen % self.stride != 0 {
+                    continue;
+                }
+                for light in 0..k {
+                    let (mut res, mut mean) = (0.0f32, 0.0f32);
+                    for (i, row) in N.iter().enumerate() {
+                        for (j, &wgt) in row.iter().enumerate() {
+                            let v = pixel(r + i - 1, c + j - 1)[light];
+                            res += wgt * v;
+                            mean += v;
+                        }
+                    }
+                    if res.is_finite() && mean.is_finite() {
+                        self.samples.push((mean / 9.0, res.abs()));
+                    }
+                }
+            }
+            self.next += 1;
+        }
+        // keep the last two rows for the neighbourhoods across the next band's edge
+        let first = end.saturating_sub(2).max(t0.min(row0));
+        let mut kept = Vec::with_capacity(2 * w * k);
+        for r in first..end {
+            for c in 0..w {
+                kept.extend_from_slice(pixel(r, c));
+            }
+        }
+        self.tail = (kept, first);
+    }
+
+    /// The model of the samples taken (a zero model when fewer than 100 pixels had a
+    /// full 3×3 neighbourhood).
+    pub fn finish(self) -> NoiseModel {
+        if self.samples.len() < 100 * self.k.max(1) {
+            return NoiseModel::constant(0.0);
+        }
+        fit(self.samples)
+    }
 }
 
 /// Bin by intensity, robust σ per bin, non-negative line σ² = a + g·I.
@@ -181,6 +251,27 @@ mod tests {
         // measured: read 0.0101, gain 0.000392
         assert!((est.read - 0.01).abs() < 0.002, "{est:?}");
         assert!((est.gain - 0.0004).abs() < 0.0001, "{est:?}");
+    }
+
+    #[test]
+    fn bands_give_the_model_of_the_whole_stack() {
+        let (s, m) = noisy_ramp(0.01, 0.0004);
+        let whole = NoiseModel::estimate(&s, &m);
+        for rows in [1, 2, 3, 7, 100] {
+            let mut sampler = NoiseSampler::new(&m, s.k);
+            for r0 in (0..s.height).step_by(rows) {
+                let r1 = (r0 + rows).min(s.height);
+                let band = ImageStack {
+                    width: s.width,
+                    height: r1 - r0,
+                    k: s.k,
+                    data: s.data[r0 * s.width * s.k..r1 * s.width * s.k].to_vec(),
+                    names: Vec::new(),
+                };
+                sampler.feed(&band, r0);
+            }
+            assert_eq!(sampler.finish(), whole, "bands of {rows} rows");
+        }
     }
 
     #[test]

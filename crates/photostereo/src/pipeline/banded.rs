@@ -1,0 +1,522 @@
+//! [`super::run`] on captures of any size: the target's images are read by row bands
+//! ([`crate::io::bands`]) within the memory budget ([`crate::plan`]), never held whole.
+//!
+//! The per-pixel stages run band by band and write into H×W maps: the lookup (one
+//! [`lut::Lookup`] prepared once, solved per band) or the Lambertian solve, the noise
+//! samples ([`NoiseSampler`], which takes the samples of the whole stack in the same
+//! order) and, for a lookup, the evidence of each pixel ([`spatial::info::from_table`]) in
+//! a second pass, once the noise is known. The spatial solve is global: it runs on the
+//! H×W evidence, and each re-linearisation pass re-reads the bands that hold pixels to
+//! re-linearise. A lookup pixel's result depends only on its own samples (and the warm
+//! start along its row, which a band keeps whole), so the maps are those of the
+//! in-memory path, and so are the depth and the mesh made from them. When the whole
+//! stack fits in the budget it is one band, read once.
+
+use std::path::Path;
+use std::time::Instant;
+
+use super::load::{check, lights, radiance_scale, scale_is_known, subtitle};
+use super::spatial_stage::{adopt, own_only, SpatialInfo};
+use super::stages;
+use super::timer::Stages;
+use super::{Calibration, Estimate, Inputs, Job, Normals, Options, Run, Titles, Truth};
+use crate::error::{Error, Result};
+use crate::image::{GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
+use crate::io::{self, DatasetBands};
+use crate::progress::{NoProgress, Progress};
+use crate::spatial::{self, info::Evidence, NoiseModel, NoiseSampler};
+use crate::{lambertian, lut, plan};
+
+/// Longest side of the decimated copy of the images kept for the report's thumbnails.
+const PREVIEW_SIDE: usize = 512;
+
+/// The target, opened for reading by bands.
+struct Capture {
+    ds: DatasetBands,
+    mask: Mask,
+    band_rows: usize,
+    /// Factor the images are multiplied by (radiance units, Lambertian).
+    scale: Option<f32>,
+    /// The one band, kept between passes when the whole stack is one band.
+    whole: Option<ImageStack>,
+}
+
+impl Capture {
+    fn height(&self) -> usize {
+        self.mask.height
+    }
+
+    /// One pass over the bands, top to bottom: `f(band, first row)` on every band whose
+    /// rows `need` says it needs (the reading stops after the last one), with progress.
+    fn pass(
+        &mut self,
+        what: &str,
+        progress: &dyn Progress,
+        need: impl Fn(usize, usize) -> bool,
+        mut f: impl FnMut(&ImageStack, usize) -> Result<()>,
+    ) -> Result<()> {
+        let (h, rows) = (self.height(), self.band_rows);
+        let starts: Vec<usize> = (0..h)
+            .step_by(rows)
+            .filter(|&r0| need(r0, (r0 + rows).min(h)))
+            .collect();
+        let Some(&last) = starts.last() else {
+            return Ok(());
+        };
+        progress.start(what, starts.len() as u64);
+        if let Some(band) = &self.whole {
+            f(band, 0)?;
+            progress.advance(1);
+            progress.finish();
+            return Ok(());
+        }
+        let mut reader = self.ds.reader()?;
+        while reader.next_row() <= last {
+            let r0 = reader.next_row();
+            let mut band = reader.next_band(rows)?;
+            if !starts.contains(&r0) {
+                continue;
+            }
+            if let Some(s) = self.scale {
+                band.data.iter_mut().for_each(|v| *v *= s);
+            }
+            f(&band, r0)?;
+            progress.advance(1);
+            if rows >= h {
+                self.whole = Some(band);
+            }
+        }
+        progress.finish();
+        Ok(())
+    }
+}
+
+/// Rows `r0..r0 + n` of `img`.
+fn rows_of<T: Clone>(img: &Image<T>, r0: usize, n: usize) -> Image<T> {
+    let w = img.width;
+    Image {
+        width: w,
+        height: n,
+        data: img.data[r0 * w..(r0 + n) * w].to_vec(),
+    }
+}
+
+/// Write `band` into `dst` from row `r0`.
+fn put_rows<T: Clone>(dst: &mut Image<T>, band: &Image<T>, r0: usize) {
+    let w = dst.width;
+    dst.data[r0 * w..(r0 + band.height) * w].clone_from_slice(&band.data);
+}
+
+/// Whether rows `r0..r1` of the mask hold a pixel of it.
+fn any_in(mask: &Mask, r0: usize, r1: usize) -> bool {
+    mask.data[r0 * mask.width..r1 * mask.width]
+        .iter()
+        .any(|&m| m)
+}
+
+/// Every `step`-th row and column of the band's images, for the thumbnails.
+fn decimate(preview: &mut Vec<f32>, band: &ImageStack, r0: usize, step: usize) {
+    for r in (0..band.height).filter(|r| (r0 + r) % step == 0) {
+        for c in (0..band.width).step_by(step) {
+            preview.extend_from_slice(band.pixel(r, c));
+        }
+    }
+}
+
+/// The whole job from paths, the target read by bands (module docs).
+pub(super) fn run(
+    inputs: &Inputs,
+    out: &Path,
+    opts: &Options,
+    progress: &dyn Progress,
+) -> Result<Run> {
+    check(inputs, opts)?;
+    let t0 = Instant::now();
+    let load_opts = io::LoadOptions {
+        mask_path: inputs.mask.clone(),
+        ..Default::default()
+    };
+    let ds = io::open_dataset_bands(&inputs.target, &load_opts)?;
+    let k = ds.header.k();
+    let (w, h) = (ds.header.width, ds.header.height);
+    let sphere = match &inputs.sphere {
+        Some(dir) => Some((dir, io::open_dataset_bands(dir, &Default::default())?)),
+        None => None,
+    };
+    let extra = sphere.as_ref().map_or(0, |(_, s)| {
+        let (sw, sh, sk) = (s.header.width, s.header.height, s.header.k());
+        // the sphere's stack, its decoding and its table
+        (sw * sh * sk * 4 * 3) as u64
+    });
+    let budget = opts
+        .memory
+        .unwrap_or_else(|| plan::default_budget(io::system_memory()));
+    let the_plan = plan::plan(&ds.header, extra, budget)?;
+    progress.note(&the_plan.to_string());
+    let image_scale = if inputs.lambertian {
+        let scale = radiance_scale(&inputs.target, inputs.image_scale, false)?;
+        let from = match (
+            inputs.image_scale.is_some(),
+            scale_is_known(&inputs.target, inputs.image_scale, false)?,
+        ) {
+            (true, _) => "given",
+            _ => "not given: images taken as radiance units",
+        };
+        Some((scale, from))
+    } else {
+        None
+    };
+    let mask = ds.mask.clone().unwrap_or_else(|| Mask::full(w, h));
+    let mut stages = Vec::new();
+    let (mut chrome, mut warnings) = (None, Vec::new());
+    let normals = match (&inputs.calibration, sphere) {
+        (Some(cal), _) => Normals::Calibrated(Box::new(cal.clone())),
+        (None, Some((dir, _))) => {
+            let sp = io::load_dataset(dir, &io::LoadOptions::default())?;
+            if sp.stack.k != k {
+                return Err(k_mismatch(dir, sp.stack.k, &inputs.target, k));
+            }
+            Normals::Lookup {
+                sphere: sp.stack,
+                sphere_mask: sp.mask,
+            }
+        }
+        (None, None) => {
+            let t = Instant::now();
+            let (lights, det) = lights(inputs, ds.lights.clone(), k, progress)?;
+            if let Some((det, mirror)) = det {
+                warnings.extend(mirror.warning());
+                chrome = Some(det);
+            }
+            stages.push(("lights".to_string(), t.elapsed().as_secs_f64()));
+            Normals::Lambertian { lights }
+        }
+    };
+    let (tn, td) = io::read_ground_truth(&inputs.target)?;
+    stages.insert(0, ("load".to_string(), t0.elapsed().as_secs_f64()));
+    let mut cap = Capture {
+        ds,
+        mask,
+        band_rows: opts
+            .max_band_rows
+            .map_or(the_plan.band_rows, |r| r.clamp(1, the_plan.band_rows)),
+        scale: image_scale.map(|s| s.0),
+        whole: None,
+    };
+    let truth = Truth {
+        normals: tn,
+        depth: td,
+    };
+    let (job, mut output) = solve(&mut cap, normals, truth, opts, progress)?;
+    if let Some((scale, from)) = image_scale {
+        output
+            .figures
+            .push(("image scale (images ×)".into(), format!("{scale} ({from})")));
+    }
+    output.chrome = chrome;
+    for w in &warnings {
+        progress.note(&format!("warning: {w}"));
+    }
+    output.warnings.extend(warnings);
+    let titles = Titles {
+        title: io::dataset_name(&inputs.target),
+        subtitle: subtitle(inputs, opts),
+    };
+    let written = super::write_outputs(out, &titles, &job, &output, &stages)?;
+    Ok(Run {
+        output,
+        report: written.report,
+        json: written.json,
+    })
+}
+
+/// The pipeline on the capture: normals by bands, then [`super::finish`]. Returns the
+/// job (its target the decimated images of the thumbnails) and the output.
+fn solve(
+    cap: &mut Capture,
+    normals: Normals,
+    truth: Truth,
+    opts: &Options,
+    progress: &dyn Progress,
+) -> Result<(Job, super::Output)> {
+    let has_truth = truth.normals.is_some() || truth.depth.is_some();
+    let total = stages::planned(&normals, false) + usize::from(has_truth);
+    let mut st = Stages::new(total, progress);
+    let (w, h, k) = (cap.mask.width, cap.mask.height, cap.ds.header.k());
+    let method = opts
+        .method
+        .unwrap_or_else(|| crate::integrate::choose_method(&cap.mask));
+    let step = w.max(h).div_ceil(PREVIEW_SIDE).max(1);
+    let mut preview = Vec::new();
+    let (est, circle, normals) = match normals {
+        Normals::Lookup {
+            sphere,
+            sphere_mask,
+        } => {
+            let det = st.run("sphere detection", |p| {
+                let det = stages::detect(&sphere, sphere_mask, opts)?;
+                if let Some(w) = det.warning() {
+                    p.note(&w);
+                }
+                Ok(det)
+            })?;
+            let table = st.run("lookup table", |_| {
+                lut::Table::build(&sphere, &det.circle, &opts.build)
+            })?;
+            drop(sphere);
+            let est = lookup_stages(&mut st, cap, &table, opts, (&mut preview, step))?;
+            let cal = Calibration {
+                table,
+                detection: Some(det.clone()),
+            };
+            (est, Some(det), Normals::Calibrated(Box::new(cal)))
+        }
+        Normals::Calibrated(cal) => {
+            let est = lookup_stages(&mut st, cap, &cal.table, opts, (&mut preview, step))?;
+            (est, cal.detection.clone(), Normals::Calibrated(cal))
+        }
+        Normals::Lambertian { lights } => {
+            let est = lambertian_stages(&mut st, cap, &lights, opts, (&mut preview, step))?;
+            (est, None, Normals::Lambertian { lights })
+        }
+    };
+    let target = ImageStack {
+        width: w.div_ceil(step),
+        height: h.div_ceil(step),
+        k,
+        data: preview,
+        names: (cap.ds.header.files.iter())
+            .map(|f| {
+                f.file_name()
+                    .unwrap_or_default()
+                    .to_string_lossy()
+                    .into_owned()
+            })
+            .collect(),
+    };
+    let job = Job {
+        target,
+        mask: cap.mask.clone(),
+        normals,
+        truth,
+    };
+    let mut output = super::finish(st, &job, opts, method, (est, circle, None))?;
+    for row in output.figures.iter_mut().filter(|r| r.0 == "images") {
+        row.1 = format!("{k} of {w}×{h}");
+    }
+    Ok((job, output))
+}
+
+/// The lookup by bands, then the spatial stage on its evidence (a second pass) with
+/// re-linearisation passes over the bands that need it.
+fn lookup_stages(
+    st: &mut Stages,
+    cap: &mut Capture,
+    table: &lut::Table,
+    opts: &Options,
+    preview: (&mut Vec<f32>, usize),
+) -> Result<Estimate> {
+    let mask = cap.mask.clone();
+    mask.check_not_empty("target mask")?;
+    let (w, h) = (mask.width, mask.height);
+    let lookup = lut::Lookup::new(std::slice::from_ref(table), &opts.lookup)?;
+    let mut sampler = NoiseSampler::new(&mask, cap.ds.header.k());
+    let (buf, step) = preview;
+    let mut est = st.run("lookup", |p| {
+        let mut normals = NormalMap::filled(w, h, [0.0; 3]);
+        let mut confidence = GrayImage::filled(w, h, 0.0);
+        let mut albedo: Option<GrayImage> = None;
+        cap.pass(
+            "lookup",
+            p,
+            |_, _| true,
+            |band, r0| {
+                sampler.feed(band, r0);
+                decimate(buf, band, r0, step);
+                let bm = rows_of(&mask, r0, band.height);
+                if bm.count() == 0 {
+                    return Ok(());
+                }
+                let out = lookup.solve(band, &bm, &NoProgress)?;
+                put_rows(&mut normals, &out.normals, r0);
+                put_rows(&mut confidence, &out.confidence, r0);
+                if let Some(a) = &out.albedo {
+                    let all = albedo.get_or_insert_with(|| GrayImage::filled(w, h, 0.0));
+                    put_rows(all, a, r0);
+                }
+                Ok(())
+            },
+        )?;
+        Ok(Estimate {
+            normals,
+            albedo,
+            confidence: Some(confidence),
+            depth: None,
+            spatial: None,
+        })
+    })?;
+    drop(lookup);
+    st.run(super::spatial_stage::name(opts), |p| {
+        let noise = sampler.finish();
+        let albedo = est.albedo.clone();
+        let info = match &opts.spatial {
+            None => {
+                let level = opts.lookup.shadow_level;
+                let tp = (table, &noise, level);
+                let ev = evidence(cap, tp, (&est.normals, albedo.as_ref()), None, p)?;
+                own_only(noise, ev.sigma_deg(&mask))
+            }
+            Some(sp_opts) => {
+                let tp = (table, &noise, sp_opts.shadow_level);
+                let ev = evidence(cap, tp, (&est.normals, albedo.as_ref()), None, p)?;
+                let sp = spatial::solve_relinearised(ev, &mask, sp_opts, |normals, far, ev| {
+                    let only = Some((far, ev));
+                    evidence(cap, tp, (normals, albedo.as_ref()), only, p).map(|_| ())
+                })?;
+                adopt(&mut est, noise, sp)
+            }
+        };
+        est.spatial = Some(info);
+        Ok(est)
+    })
+}
+
+/// The evidence of the lookup's matches ([`spatial::info::from_table`]) by bands; or,
+/// with `only = (far, ev)`, the costs of the `far` pixels linearised at `normals`
+/// ([`spatial::info::linearise`]) written into `ev` at those pixels, reading only the
+/// bands that hold them (then the evidence returned is empty).
+fn evidence(
+    cap: &mut Capture,
+    (table, noise, level): (&lut::Table, &NoiseModel, f32),
+    (normals, albedo): (&NormalMap, Option<&GrayImage>),
+    mut only: Option<(&[bool], &mut Evidence)>,
+    progress: &dyn Progress,
+) -> Result<Evidence> {
+    let mask = cap.mask.clone();
+    let (w, h) = (mask.width, mask.height);
+    let n_all = if only.is_some() { 0 } else { w * h };
+    let mut ev = Evidence {
+        width: w,
+        height: h,
+        u: vec![[0.0; 2]; n_all],
+        a: vec![[0.0; 3]; n_all],
+        g: Vec::new(),
+    };
+    let far = only.as_ref().map(|(f, _)| *f);
+    let need = |r0: usize, r1: usize| match far {
+        None => any_in(&mask, r0, r1),
+        Some(f) => f[r0 * w..r1 * w].iter().any(|&x| x),
+    };
+    let what = if far.is_some() {
+        "re-linearisation"
+    } else {
+        "evidence"
+    };
+    cap.pass(what, progress, need, |band, r0| {
+        let n = band.height;
+        let span = r0 * w..(r0 + n) * w;
+        let bm = rows_of(&mask, r0, n);
+        let bn = rows_of(normals, r0, n);
+        let ba = albedo.map(|a| rows_of(a, r0, n));
+        let lin = |f: &[bool]| {
+            spatial::info::linearise(band, &bm, table, &bn, ba.as_ref(), noise, level, f)
+        };
+        match only.as_mut() {
+            None => {
+                let e = spatial::info::from_table(band, &bm, table, &bn, ba.as_ref(), noise, level);
+                ev.u[span.clone()].copy_from_slice(&e.u);
+                ev.a[span].copy_from_slice(&e.a);
+            }
+            Some((f, dst)) => {
+                let e = lin(&f[span.clone()]);
+                for (j, i) in span.enumerate().filter(|&(_, i)| f[i]) {
+                    (dst.u[i], dst.a[i], dst.g[i]) = (e.u[j], e.a[j], e.g[j]);
+                }
+            }
+        }
+        Ok(())
+    })?;
+    Ok(ev)
+}
+
+/// The Lambertian solve by bands, then the spatial stage (its evidence needs the
+/// normals and the noise only, not the images).
+fn lambertian_stages(
+    st: &mut Stages,
+    cap: &mut Capture,
+    lights: &Lights,
+    opts: &Options,
+    preview: (&mut Vec<f32>, usize),
+) -> Result<Estimate> {
+    let mask = cap.mask.clone();
+    mask.check_not_empty("mask")?;
+    let (w, h, k) = (mask.width, mask.height, cap.ds.header.k());
+    let mut sampler = NoiseSampler::new(&mask, k);
+    let (buf, step) = preview;
+    let mut est = st.run("Lambertian photometric stereo", |p| {
+        let mut normals = NormalMap::filled(w, h, [0.0; 3]);
+        let mut albedo = GrayImage::filled(w, h, 0.0);
+        cap.pass(
+            "Lambertian",
+            p,
+            |_, _| true,
+            |band, r0| {
+                sampler.feed(band, r0);
+                decimate(buf, band, r0, step);
+                let bm = rows_of(&mask, r0, band.height);
+                if bm.count() == 0 {
+                    return Ok(());
+                }
+                let out = lambertian::solve(band, &bm, lights, &opts.lambertian)?;
+                put_rows(&mut normals, &out.normals, r0);
+                put_rows(&mut albedo, &out.albedo, r0);
+                Ok(())
+            },
+        )?;
+        Ok(Estimate {
+            normals,
+            albedo: Some(albedo),
+            confidence: None,
+            depth: None,
+            spatial: None,
+        })
+    })?;
+    st.run(super::spatial_stage::name(opts), |_| {
+        let noise = sampler.finish();
+        // from_lambertian takes the images' size from the stack, not their samples
+        let size = ImageStack {
+            width: w,
+            height: h,
+            k,
+            data: Vec::new(),
+            names: Vec::new(),
+        };
+        let albedo = est
+            .albedo
+            .clone()
+            .unwrap_or_else(|| GrayImage::filled(w, h, 1.0));
+        let ev =
+            spatial::info::from_lambertian(&size, &mask, lights, &est.normals, &albedo, &noise);
+        let info: SpatialInfo = match &opts.spatial {
+            None => own_only(noise, ev.sigma_deg(&mask)),
+            Some(sp_opts) => {
+                let sp = spatial::solve(&ev, &mask, sp_opts)?;
+                adopt(&mut est, noise, sp)
+            }
+        };
+        est.spatial = Some(info);
+        Ok(est)
+    })
+}
+
+fn k_mismatch(dir: &Path, sk: usize, target: &Path, k: usize) -> Error {
+    Error::invalid(
+        format!(
+            "the sphere {} has {sk} images, the target {} has {k}",
+            dir.display(),
+            target.display(),
+        ),
+        "image the sphere under the same lights as the target: one image per light, in \
+         the same order (filenames.txt sets the order)",
+    )
+}

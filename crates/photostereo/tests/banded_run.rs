@@ -1,0 +1,147 @@
+//! A run from paths reads the target by row bands (`pipeline::run`, `io::bands`): its
+//! normals and depth equal those of the in-memory pipeline (`pipeline::load` +
+//! `pipeline::solve`) on a capture small enough for both, with bands that split the
+//! mask at many rows, for a lookup with a sphere and for Lambertian photometric stereo.
+//! And a capture over the memory budget stops before anything is read or written.
+
+use photostereo::error::Setting;
+use photostereo::pipeline::{self, Inputs, Options};
+use photostereo::progress::NoProgress;
+use photostereo::synth::{self, Material, SceneOptions, Shape, ShapeKind};
+use photostereo::{io, Error};
+use std::path::{Path, PathBuf};
+
+fn tmp_dir(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("banded_run_{name}"));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A 96×80 vase under 12 lights (16-bit PNGs, with truth) and its sphere of radius 30.
+fn write_capture(dir: &Path, material: Material) {
+    let (w, h) = (96, 80);
+    let opts = SceneOptions {
+        width: w,
+        height: h,
+        shape: Shape::preset(ShapeKind::Vase, w, h),
+        material,
+        lights: synth::default_lights(12),
+        noise_sigma: 0.003,
+        quantize_16bit: true,
+        seed: 5,
+        exposure: 0.6,
+        ..Default::default()
+    };
+    let scene = synth::render(&opts).unwrap();
+    io::write_dataset(dir, &scene.stack, &scene.lights, Some(&scene.mask), 16).unwrap();
+    io::write_normals(&dir.join("normal_gt.npy"), &scene.normals).unwrap();
+    io::write_gray_npy(&dir.join("depth_gt.npy"), &scene.depth).unwrap();
+    let sphere = synth::render_calibration_sphere(&opts, 30.0).unwrap();
+    let sd = dir.join("sphere");
+    io::write_dataset(&sd, &sphere.stack, &sphere.lights, Some(&sphere.mask), 16).unwrap();
+}
+
+fn compare(inputs: &Inputs, out: &Path, band_rows: usize) {
+    let opts = Options {
+        max_band_rows: Some(band_rows),
+        ..Default::default()
+    };
+    let loaded = pipeline::load(inputs, &opts, &NoProgress).unwrap();
+    let whole = pipeline::solve(&loaded.job, &opts, &NoProgress).unwrap();
+    let banded = pipeline::run(inputs, out, &opts, &NoProgress)
+        .unwrap()
+        .output;
+    let mask = &loaded.job.mask;
+    assert!(mask.count() > 1000);
+    let mut worst_n = 0.0f32;
+    for (a, b) in whole.normals.data.iter().zip(&banded.normals.data) {
+        for i in 0..3 {
+            worst_n = worst_n.max((a[i] - b[i]).abs());
+        }
+    }
+    let mut worst_d = 0.0f32;
+    for ((a, b), &m) in whole
+        .depth
+        .data
+        .iter()
+        .zip(&banded.depth.data)
+        .zip(&mask.data)
+    {
+        if m {
+            worst_d = worst_d.max((a - b).abs());
+        }
+    }
+    println!("bands of {band_rows} rows: normals {worst_n:e}, depth {worst_d:e} px");
+    assert!(worst_n <= 1e-6, "normals differ by {worst_n}");
+    assert!(worst_d <= 1e-4, "depth differs by {worst_d} px");
+    assert_eq!(whole.method, banded.method);
+    let acc = |o: &pipeline::Output| o.accuracy.angular.as_ref().unwrap().0.mean;
+    assert!((acc(&whole) - acc(&banded)).abs() < 1e-9);
+    let images = banded.figures.iter().find(|r| r.0 == "images").unwrap();
+    assert_eq!(
+        images.1, "12 of 96×80",
+        "the images' own size, not the thumbnails'"
+    );
+}
+
+#[test]
+fn lookup_by_bands_equals_the_in_memory_run() {
+    let dir = tmp_dir("lookup");
+    write_capture(&dir, Material::shiny_plastic());
+    let inputs = Inputs {
+        target: dir.clone(),
+        sphere: Some(dir.join("sphere")),
+        ..Default::default()
+    };
+    // 7 rows: bands that cut the vase at many rows (and not at a multiple of 80)
+    compare(&inputs, &dir.join("out7"), 7);
+    compare(&inputs, &dir.join("out1"), 1);
+}
+
+#[test]
+fn lambertian_by_bands_equals_the_in_memory_run() {
+    let dir = tmp_dir("lambertian");
+    write_capture(&dir, Material::Lambertian { albedo: 0.8 });
+    let inputs = Inputs {
+        target: dir.clone(),
+        lambertian: true,
+        ..Default::default()
+    };
+    compare(&inputs, &dir.join("out"), 9);
+}
+
+#[test]
+fn a_capture_over_the_budget_stops_before_reading_pixels() {
+    let dir = tmp_dir("over");
+    write_capture(&dir, Material::shiny_plastic());
+    // one image that cannot be a PNG past its header: had the run read pixels, it
+    // would fail on it instead
+    let bytes = std::fs::read(dir.join("001.png")).unwrap();
+    std::fs::write(dir.join("001.png"), &bytes[..bytes.len() / 2]).unwrap();
+    let inputs = Inputs {
+        target: dir.clone(),
+        sphere: Some(dir.join("sphere")),
+        ..Default::default()
+    };
+    let out = dir.join("out");
+    let opts = Options {
+        memory: Some(1 << 20),
+        ..Default::default()
+    };
+    let err = pipeline::run(&inputs, &out, &opts, &NoProgress).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        matches!(
+            err,
+            Error::Setting {
+                setting: Setting::Memory,
+                ..
+            }
+        ),
+        "{text}"
+    );
+    assert!(text.contains("12 images of 96×80 need at least"), "{text}");
+    assert!(text.contains("over the memory budget of 1.0 MiB"), "{text}");
+    assert!(!out.exists(), "nothing written");
+}
