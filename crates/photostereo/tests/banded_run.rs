@@ -28,7 +28,7 @@ fn write_capture(dir: &Path, material: Material) {
         material,
         lights: synth::default_lights(12),
         noise_sigma: 0.003,
-        quantize_16bit: true,
+        camera: synth::Camera::quantized(16),
         seed: 5,
         exposure: 0.6,
         ..Default::default()
