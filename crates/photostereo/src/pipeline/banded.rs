@@ -19,7 +19,7 @@ use super::load::{check, lights, radiance_scale, scale_is_known, subtitle};
 use super::spatial_stage::{adopt, own_only, SpatialInfo};
 use super::stages;
 use super::timer::Stages;
-use super::{Calibration, Estimate, Inputs, Job, Normals, Options, Run, Titles, Truth};
+use super::{Estimate, Inputs, Job, Normals, Options, Run, Titles, Truth};
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
 use crate::io::{self, DatasetBands};
@@ -254,7 +254,7 @@ fn solve(
             sphere_mask,
         } => {
             let det = st.run("sphere detection", |p| {
-                let det = stages::detect(&sphere, sphere_mask, opts)?;
+                let det = stages::detect(&sphere, sphere_mask.clone(), opts)?;
                 if let Some(w) = det.warning() {
                     p.note(&w);
                 }
@@ -263,13 +263,13 @@ fn solve(
             let table = st.run("lookup table", |_| {
                 lut::Table::build(&sphere, &det.circle, &opts.build)
             })?;
-            drop(sphere);
             let est = lookup_stages(&mut st, cap, &table, opts, (&mut preview, step))?;
-            let cal = Calibration {
-                table,
-                detection: Some(det.clone()),
+            // the sphere stays in the job: the checks of the circle look at it
+            let normals = Normals::Lookup {
+                sphere,
+                sphere_mask,
             };
-            (est, Some(det), Normals::Calibrated(Box::new(cal)))
+            (est, Some(det), normals)
         }
         Normals::Calibrated(cal) => {
             let est = lookup_stages(&mut st, cap, &cal.table, opts, (&mut preview, step))?;
