@@ -183,7 +183,7 @@ pub(super) fn run(
         }
         (None, None) => {
             let t = Instant::now();
-            let (lights, det) = lights(inputs, ds.lights.clone(), k, progress)?;
+            let (lights, det) = lights(inputs, ds.lights.clone(), &file_names(&ds), progress)?;
             if let Some((det, mirror)) = det {
                 warnings.extend(mirror.warning());
                 chrome = Some(det);
@@ -285,14 +285,7 @@ fn solve(
         height: h.div_ceil(step),
         k,
         data: preview,
-        names: (cap.ds.header.files.iter())
-            .map(|f| {
-                f.file_name()
-                    .unwrap_or_default()
-                    .to_string_lossy()
-                    .into_owned()
-            })
-            .collect(),
+        names: file_names(&cap.ds),
     };
     let job = Job {
         target,
@@ -519,4 +512,17 @@ fn k_mismatch(dir: &Path, sk: usize, target: &Path, k: usize) -> Error {
         "image the sphere under the same lights as the target: one image per light, in \
          the same order (filenames.txt sets the order)",
     )
+}
+
+/// The images' file names (as [`ImageStack::names`]), in light order: what a light file
+/// naming its images (`.lp`) is matched against.
+fn file_names(ds: &DatasetBands) -> Vec<String> {
+    (ds.header.files.iter())
+        .map(|f| {
+            f.file_name()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect()
 }
