@@ -6,6 +6,15 @@ use super::{Accuracy, Estimate, Interreflections, Job, Output};
 use crate::image::{DepthMap, GrayImage, Mask};
 use crate::{integrate, mesh, sphere};
 
+/// The title (the dataset's name) and subtitle (how it was solved) of a report.
+#[derive(Clone, Debug, Default)]
+pub struct Titles {
+    /// Title of the report and `dataset` of `run.json`.
+    pub title: String,
+    /// One line under the title.
+    pub subtitle: String,
+}
+
 /// Depth range (max − min) over the mask, pixels.
 pub fn depth_range(depth: &DepthMap, mask: &Mask) -> f32 {
     let (lo, hi) = depth

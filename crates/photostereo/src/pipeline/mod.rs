@@ -49,9 +49,10 @@ use crate::progress::Progress;
 use crate::{eval, integrate, interreflect, lambertian, lut, mesh, spatial, sphere};
 
 pub use checks::NEIGHBOURS_WARN;
+pub use figures::Titles;
 pub use figures::{depth_range, masked_mean, run_json, warnings, LOW_CONFIDENCE};
 pub use load::{load, radiance_scale, run, scale_is_known, Inputs, Loaded, Run};
-pub use outputs::{write_outputs, Titles, Written};
+pub use outputs::{write_outputs, Written};
 #[cfg(feature = "report")]
 pub use report_page::build_report;
 

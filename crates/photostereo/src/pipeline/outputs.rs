@@ -5,20 +5,11 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
 
-use super::figures::run_json;
+use super::figures::{run_json, Titles};
 use super::{Job, Normals, Output};
 use crate::error::Result;
 use crate::picture as raster;
 use crate::{io, mesh, sphere};
-
-/// The title (the dataset's name) and subtitle (how it was solved) of a report.
-#[derive(Clone, Debug, Default)]
-pub struct Titles {
-    /// Title of the report and `dataset` of `run.json`.
-    pub title: String,
-    /// One line under the title.
-    pub subtitle: String,
-}
 
 /// What [`write_outputs`] did: the report's path and what `run.json` holds, with the
 /// names of the files written (`files`) and of the stale ones removed (`stale_removed`).
@@ -149,6 +140,6 @@ fn write_sides(out: &Path, job: &Job, p: &Output) -> Result<Vec<&'static str>> {
     Ok(files)
 }
 
-pub(super) fn overlay_png(det: &sphere::Detection) -> Result<Vec<u8>> {
+fn overlay_png(det: &sphere::Detection) -> Result<Vec<u8>> {
     crate::picture::encode_png(&sphere::overlay(&det.max_image, &det.circle))
 }

@@ -1,11 +1,12 @@
 //! The HTML report of a job (the `report` feature): maps, figures, timings, the 3-D
 //! view of the mesh.
 
-use super::outputs::overlay_png;
-use super::{Job, Normals, Output, Titles};
+use super::figures::Titles;
+use super::{Job, Normals, Output};
 use crate::error::Result;
 use crate::picture::ColorMap;
 use crate::report::{Report, Section};
+use crate::sphere;
 
 /// The HTML report of a job (`stages`: every timing to list, in order).
 pub fn build_report(
@@ -43,7 +44,7 @@ pub fn build_report(
         r.png(
             Section::Maps,
             "calibration sphere: circle found",
-            overlay_png(det)?,
+            sphere::encode_png(&sphere::overlay(&det.max_image, &det.circle))?,
         )?;
     }
     if let Normals::Lambertian { lights } = &job.normals {
@@ -53,7 +54,7 @@ pub fn build_report(
         r.png(
             Section::Lights,
             "chrome sphere: circle found (chrome_overlay.png)",
-            overlay_png(det)?,
+            sphere::encode_png(&sphere::overlay(&det.max_image, &det.circle))?,
         )?;
     }
     error_maps(&mut r, job, p)?;
