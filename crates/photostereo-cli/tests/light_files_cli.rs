@@ -203,3 +203,84 @@ fn bad_lp_files_are_refused_naming_the_file_and_the_fix() {
         "{err}"
     );
 }
+
+/// The light images of `png` (16-bit linear) as sRGB-encoded quality-95 JPEGs in `jpg`,
+/// with the same lights and mask.
+fn as_srgb_jpegs(png: &Path, jpg: &Path) {
+    let ds = io::load_dataset(png, &Default::default()).unwrap();
+    let mut names = String::new();
+    for light in 0..ds.stack.k {
+        let srgb: Vec<u8> = (0..ds.stack.pixels())
+            .map(|i| {
+                let v = ds.stack.pixel_flat(i)[light].clamp(0.0, 1.0);
+                let e = if v <= 0.003_130_8 {
+                    12.92 * v
+                } else {
+                    1.055 * v.powf(1.0 / 2.4) - 0.055
+                };
+                (e * 255.0).round() as u8
+            })
+            .collect();
+        let name = format!("{light:03}.jpg");
+        let img = image::GrayImage::from_raw(SIZE as u32, SIZE as u32, srgb).unwrap();
+        let file = std::fs::File::create(jpg.join(&name)).unwrap();
+        let mut enc = image::codecs::jpeg::JpegEncoder::new_with_quality(file, 95);
+        enc.encode_image(&img).unwrap();
+        names += &format!("{name}\n");
+    }
+    std::fs::write(jpg.join("filenames.txt"), names).unwrap();
+    for f in ["light_directions.txt", "mask.png"] {
+        std::fs::copy(png.join(f), jpg.join(f)).unwrap();
+    }
+}
+
+/// Mean angle (degrees) between two normal maps over the pixels where both are set.
+fn mean_angle_deg(a: &[f32], b: &[f32]) -> f64 {
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for (p, q) in a.chunks(3).zip(b.chunks(3)) {
+        if p.iter().chain(q).all(|v| v.is_finite()) && p[2] != 0.0 && q[2] != 0.0 {
+            let cross = [
+                p[1] * q[2] - p[2] * q[1],
+                p[2] * q[0] - p[0] * q[2],
+                p[0] * q[1] - p[1] * q[0],
+            ];
+            let c = (cross.iter().map(|v| v * v).sum::<f32>()).sqrt() as f64;
+            let d = p.iter().zip(q).map(|(x, y)| x * y).sum::<f32>() as f64;
+            sum += c.atan2(d).to_degrees();
+            n += 1;
+        }
+    }
+    assert!(n > 0, "no pixel with a normal in both maps");
+    sum / n as f64
+}
+
+#[test]
+fn run_reads_camera_jpegs_whole_and_linearises_them() {
+    let png = dataset("jpeg-png");
+    let jpg = tmp("jpeg-jpg");
+    as_srgb_jpegs(&png, &jpg);
+    let outs = [
+        tmp("jpeg-png-out"),
+        tmp("jpeg-jpg-out"),
+        tmp("jpeg-lin-out"),
+    ];
+    for (data, out, extra) in [
+        (&png, &outs[0], &[][..]),
+        (&jpg, &outs[1], &[][..]),
+        (&jpg, &outs[2], &["--response", "linear"][..]),
+    ] {
+        let (ok, err) = run_lambertian(data, out, extra);
+        assert!(ok, "run on {}: {err}", data.display());
+    }
+    let reference = normals(&outs[0]);
+    let srgb = mean_angle_deg(&reference, &normals(&outs[1]));
+    let linear = mean_angle_deg(&reference, &normals(&outs[2]));
+    assert!(
+        srgb < 1.0,
+        "JPEG read as sRGB: {srgb:.3} deg from the PNG's normals"
+    );
+    assert!(
+        linear > 3.0 * srgb,
+        "read as linear {linear:.3} vs sRGB {srgb:.3} deg"
+    );
+}

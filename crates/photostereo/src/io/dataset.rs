@@ -170,6 +170,12 @@ pub fn open_dataset_bands(dir: &Path, opts: &LoadOptions) -> Result<DatasetBands
     })
 }
 
+/// Whether [`open_dataset_bands`] reads `dir` (one linear image per light, listable).
+pub fn readable_by_bands(dir: &Path, response: Response) -> bool {
+    let files = other_light_file(dir).and_then(|o| list_images(dir, o.as_ref()));
+    matches!(files, Ok(f) if f.first().is_some_and(|p| check_banded(dir, p, response).is_ok()))
+}
+
 /// Band-wise reading takes linear single-exposure images: refuse a bracketed dataset
 /// ([`hdr`]) or images with a non-linear response (a JPEG read as sRGB).
 fn check_banded(dir: &Path, first: &Path, response: Response) -> Result<()> {

@@ -64,8 +64,8 @@ pub mod run;
 
 pub use bands::{probe_images, BandReader, StackHeader};
 pub use dataset::{
-    load_dataset, open_dataset_bands, read_intensities, read_lights, write_dataset,
-    write_intensities, write_light_directions, Dataset, DatasetBands, LoadOptions,
+    load_dataset, open_dataset_bands, read_intensities, read_lights, readable_by_bands,
+    write_dataset, write_intensities, write_light_directions, Dataset, DatasetBands, LoadOptions,
 };
 pub use lights_file::{read_light_file, read_lights_for, write_lp, LightFile, LightFormat};
 pub use npy::{

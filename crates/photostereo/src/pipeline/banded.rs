@@ -134,13 +134,18 @@ pub(super) fn run(
     let t0 = Instant::now();
     let load_opts = io::LoadOptions {
         mask_path: inputs.mask.clone(),
+        response: inputs.response,
+        ..Default::default()
+    };
+    let others = io::LoadOptions {
+        response: inputs.response,
         ..Default::default()
     };
     let ds = io::open_dataset_bands(&inputs.target, &load_opts)?;
     let k = ds.header.k();
     let (w, h) = (ds.header.width, ds.header.height);
     let sphere = match &inputs.sphere {
-        Some(dir) => Some((dir, io::open_dataset_bands(dir, &Default::default())?)),
+        Some(dir) => Some((dir, io::open_dataset_bands(dir, &others)?)),
         None => None,
     };
     let extra = sphere.as_ref().map_or(0, |(_, s)| {
@@ -213,6 +218,10 @@ pub(super) fn run(
             .figures
             .push(("image scale (images ×)".into(), format!("{scale} ({from})")));
     }
+    // read by bands only when linear (io::readable_by_bands)
+    output
+        .figures
+        .push(("image response".into(), io::Response::Linear.to_string()));
     output.chrome = chrome;
     for w in &warnings {
         progress.note(&format!("warning: {w}"));

@@ -174,9 +174,12 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
 ///
 /// Without interreflection removal (a global iteration on the whole stack) the target's
 /// images are read by row bands within the memory budget [`Options::memory`]
-/// ([`crate::plan`]); the results are those of [`load`] and [`super::solve`].
+/// ([`crate::plan`]); the results are those of [`load`] and [`super::solve`]. Bracketed
+/// exposures and non-linear images are loaded whole (no memory plan).
 pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress) -> Result<Run> {
-    if !opts.interreflections {
+    // bracketed exposures and non-linear (JPEG) images are merged / linearised by the
+    // whole-stack loader only
+    if !opts.interreflections && io::readable_by_bands(&inputs.target, inputs.response) {
         return super::banded::run(inputs, out, opts, progress);
     }
     let loaded = load(inputs, opts, progress)?;
