@@ -206,7 +206,7 @@ fn spatial_stage(
         // mixtures: the evidence of a pixel depends on its weights too (not modelled)
         return Ok((out.normals.clone(), out.confidence.clone(), Vec::new()));
     }
-    let noise = spatial::NoiseModel::estimate(stack, mask);
+    let (noise, censor) = spatial::NoiseModel::estimate_with_censor(stack, mask);
     let opts = spatial_options(args);
     let say = |s: String| {
         if !global.quiet {
@@ -214,8 +214,9 @@ fn spatial_stage(
         }
     };
     say(format!(
-        "noise measured on the target: σ = √({:.3e}² + {:.3e}·I)",
-        noise.read, noise.gain
+        "noise measured on the target: σ = √({:.3e}² + {:.3e}·I), at least the \
+         quantisation step {:.3e} / √12",
+        noise.read, noise.gain, noise.step
     ));
     if args.no_spatial {
         let ev = spatial::info::from_table(
@@ -224,7 +225,7 @@ fn spatial_stage(
             &tables[0],
             &out.normals,
             out.albedo.as_ref(),
-            &noise,
+            (&noise, &censor),
             opts.shadow_level,
         );
         let sigma = ev.sigma_deg(mask);
@@ -241,11 +242,13 @@ fn spatial_stage(
     let sp = spatial::solve_table(stack, mask, &tables[0], out, &noise, &opts)
         .context("spatial stage after the lookup")?;
     say(format!(
-        "spatial stage: {} of {} pixels decided by their neighbours, {} discontinuity cuts; \
-         angular standard error of the own data: mean {:.2}° (normals_sigma.npy)",
+        "spatial stage: {} of {} pixels decided by their neighbours, {} discontinuity cuts, \
+         {} kept their own match (their data reject the neighbours' normal); angular \
+         standard error of the own data: mean {:.2}° (normals_sigma.npy)",
         sp.stats.decided_by_neighbours,
         sp.stats.pixels,
         sp.stats.cut_triples,
+        sp.stats.kept_own,
         sp.stats.mean_sigma_deg
     ));
     let confidence = spatial::confidence_after(&out.confidence, &sp.own_share);

@@ -113,7 +113,7 @@ fn bench(cr: &mut Criterion) {
         let skip = c.noise > 0.0 && std::env::var("SPATIAL_ALL").is_err();
         if std::env::var("SPATIAL_PROFILE").is_ok() {
             let t = Instant::now();
-            let noise = spatial::NoiseModel::estimate(&c.target, &c.mask);
+            let (noise, censor) = spatial::NoiseModel::estimate_with_censor(&c.target, &c.mask);
             let t_noise = t.elapsed().as_secs_f64();
             let t = Instant::now();
             let ev = spatial::info::from_table(
@@ -122,7 +122,7 @@ fn bench(cr: &mut Criterion) {
                 &c.table,
                 &out.normals,
                 None,
-                &noise,
+                (&noise, &censor),
                 0.03,
             );
             let t_ev = t.elapsed().as_secs_f64();

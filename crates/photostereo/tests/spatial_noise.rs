@@ -158,7 +158,10 @@ fn angular_standard_error_is_the_error_of_an_efficient_estimator() {
         &table,
         &lk.normals,
         None,
-        &noise,
+        (
+            &noise,
+            &spatial::Censor::new(&case.target, &case.mask, noise.step),
+        ),
         0.03,
     );
     let ratio = error_over_sigma(&lk.normals, &ev.sigma_deg(&case.mask), &case);
@@ -187,7 +190,9 @@ fn spatial_stage_fills_the_dark_pixels_of_rough_metal() {
     let (e0, e1, out, sp) = lookup_and_spatial(&case);
     println!("rough metal, 1% noise: lookup {e0:.2}°, spatial stage {e1:.2}°");
     // measured: 9.11° → 1.90° (4 re-linearisation passes; table denoised in normal
-    // space, with the image blur 9.23° → 2.74°); the issue's target is < 4°
+    // space, with the image blur 9.23° → 2.74°); the issue's target is < 4°. The rule
+    // that a pixel's own data may reject its neighbours' normal (issue 24) is off under
+    // Gaussian noise (NoiseModel::quantisation_limited): with it, 2.58°
     assert!(e1 < 0.4 * e0 && e1 < 4.0, "{e0} → {e1}");
     // the pixels decided by their neighbours are the ones the lookup got wrong, and the
     // confidence afterwards says so
@@ -235,7 +240,7 @@ fn spatial_stage_keeps_a_crease() {
     };
     let (b0, b1) = (band(&e_out), band(&e_sp));
     println!("crease band: lookup {b0:.3}°, spatial {b1:.3}° (whole mask {e0:.3}° → {e1:.3}°)");
-    // measured: band 0.93° → 0.35°, whole 0.78° → 0.25°
+    // measured: band 0.93° → 0.35°, whole 0.78° → 0.25° (0.247°)
     assert!(b1 <= b0, "{b0} → {b1}");
     assert!(e1 < 0.7 * e0);
 }

@@ -24,7 +24,10 @@ use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
 use crate::io::{self, DatasetBands};
 use crate::progress::{NoProgress, Progress};
-use crate::spatial::{self, info::Evidence, NoiseModel, NoiseSampler};
+use crate::spatial::{self, info::Evidence, Censor, NoiseModel, NoiseSampler};
+
+/// The sensor's evidence model: the noise and the censoring bounds of the capture.
+type Model<'a> = (&'a NoiseModel, &'a Censor);
 use crate::{lambertian, lut, plan};
 
 /// Longest side of the decimated copy of the images kept for the report's thumbnails.
@@ -359,22 +362,37 @@ fn lookup_stages(
     })?;
     drop(lookup);
     st.run(super::spatial_stage::name(opts), |p| {
-        let noise = sampler.finish();
+        let (noise, censor) = sampler.finish_with_censor();
+        let model = (&noise, &censor);
         let albedo = est.albedo.clone();
         let info = match &opts.spatial {
             None => {
                 let level = opts.lookup.shadow_level;
-                let tp = (table, &noise, level);
+                let tp = (table, model, level);
                 let ev = evidence(cap, tp, (&est.normals, albedo.as_ref()), None, p)?;
                 own_only(noise, ev.sigma_deg(&mask))
             }
             Some(sp_opts) => {
-                let tp = (table, &noise, sp_opts.shadow_level);
+                let tp = (table, model, sp_opts.shadow_level);
                 let ev = evidence(cap, tp, (&est.normals, albedo.as_ref()), None, p)?;
-                let sp = spatial::solve_relinearised(ev, &mask, sp_opts, |normals, far, ev| {
-                    let only = Some((far, ev));
-                    evidence(cap, tp, (normals, albedo.as_ref()), only, p).map(|_| ())
-                })?;
+                let (mut sp, ev) =
+                    spatial::solve_relinearised(ev, &mask, sp_opts, |normals, far, ev| {
+                        let only = Some((far, ev));
+                        evidence(cap, tp, (normals, albedo.as_ref()), only, p).map(|_| ())
+                    })?;
+                let matches = (&ev, &est.normals);
+                spatial::keep_own_where_rejected(
+                    &mut sp,
+                    matches,
+                    &mask,
+                    &noise,
+                    sp_opts,
+                    |s, m| {
+                        let pair = (&est.normals, s);
+                        own_cost_rise(cap, tp, (pair, albedo.as_ref()), m, p)
+                    },
+                )?;
+                drop(ev);
                 adopt(&mut est, noise, sp)
             }
         };
@@ -389,7 +407,7 @@ fn lookup_stages(
 /// bands that hold them (then the evidence returned is empty).
 fn evidence(
     cap: &mut Capture,
-    (table, noise, level): (&lut::Table, &NoiseModel, f32),
+    (table, model, level): (&lut::Table, Model, f32),
     (normals, albedo): (&NormalMap, Option<&GrayImage>),
     mut only: Option<(&[bool], &mut Evidence)>,
     progress: &dyn Progress,
@@ -421,11 +439,11 @@ fn evidence(
         let bn = rows_of(normals, r0, n);
         let ba = albedo.map(|a| rows_of(a, r0, n));
         let lin = |f: &[bool]| {
-            spatial::info::linearise(band, &bm, table, &bn, ba.as_ref(), noise, level, f)
+            spatial::info::linearise(band, &bm, table, &bn, ba.as_ref(), model, level, f)
         };
         match only.as_mut() {
             None => {
-                let e = spatial::info::from_table(band, &bm, table, &bn, ba.as_ref(), noise, level);
+                let e = spatial::info::from_table(band, &bm, table, &bn, ba.as_ref(), model, level);
                 ev.u[span.clone()].copy_from_slice(&e.u);
                 ev.a[span].copy_from_slice(&e.a);
             }
@@ -439,6 +457,34 @@ fn evidence(
         Ok(())
     })?;
     Ok(ev)
+}
+
+/// For the `moved` pixels, by how much their own data's cost rises from the lookup's
+/// matches to the spatial solution (`pair`; [`spatial::info::cost_increase`]), reading
+/// only the bands that hold such pixels.
+fn own_cost_rise(
+    cap: &mut Capture,
+    (table, model, level): (&lut::Table, Model, f32),
+    ((matches, solution), albedo): ((&NormalMap, &NormalMap), Option<&GrayImage>),
+    moved: &[bool],
+    progress: &dyn Progress,
+) -> Result<Vec<f32>> {
+    let mask = cap.mask.clone();
+    let w = mask.width;
+    let mut rise = vec![0f32; moved.len()];
+    let need = |r0: usize, r1: usize| moved[r0 * w..r1 * w].iter().any(|&x| x);
+    cap.pass("own-data check", progress, need, |band, r0| {
+        let n = band.height;
+        let span = r0 * w..(r0 + n) * w;
+        let bm = rows_of(&mask, r0, n);
+        let pair = (&rows_of(matches, r0, n), &rows_of(solution, r0, n));
+        let ba = albedo.map(|a| rows_of(a, r0, n));
+        let (ba, sel) = (ba.as_ref(), &moved[span.clone()]);
+        let r = spatial::info::cost_increase(band, &bm, table, pair, ba, model, level, sel);
+        rise[span].copy_from_slice(&r);
+        Ok(())
+    })?;
+    Ok(rise)
 }
 
 /// The Lambertian solve by bands, then the spatial stage (its evidence needs the

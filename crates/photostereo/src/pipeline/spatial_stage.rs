@@ -44,7 +44,7 @@ pub(super) fn after_lookup(
 ) -> Result<Estimate> {
     st.run(name(opts), |_| {
         let (stack, mask) = (&job.target, &job.mask);
-        let noise = NoiseModel::estimate(stack, mask);
+        let (noise, censor) = NoiseModel::estimate_with_censor(stack, mask);
         let albedo = est.albedo.as_ref();
         let info = match &opts.spatial {
             None => {
@@ -55,7 +55,7 @@ pub(super) fn after_lookup(
                     table,
                     &est.normals,
                     albedo,
-                    &noise,
+                    (&noise, &censor),
                     level,
                 );
                 own_only(noise, ev.sigma_deg(mask))
@@ -134,7 +134,10 @@ pub(super) fn rows(info: &SpatialInfo, mask: &Mask) -> Vec<(String, String)> {
     let mut f = vec![
         (
             "noise measured on the target".to_string(),
-            format!("σ = √({:.3e}² + {:.3e}·I)", n.read, n.gain),
+            format!(
+                "σ = √({:.3e}² + {:.3e}·I), ≥ step {:.3e} / √12",
+                n.read, n.gain, n.step
+            ),
         ),
         (
             "mean angular standard error of the normals, own data (°)".to_string(),
@@ -143,11 +146,13 @@ pub(super) fn rows(info: &SpatialInfo, mask: &Mask) -> Vec<(String, String)> {
     ];
     let row = match &info.stats {
         Some(s) => format!(
-            "{} of {} pixels decided by their neighbours ({:.1}%), {} discontinuity cuts",
+            "{} of {} pixels decided by their neighbours ({:.1}%), {} discontinuity cuts, \
+             {} kept their own match (their data reject the neighbours' normal)",
             s.decided_by_neighbours,
             s.pixels,
             100.0 * s.decided_by_neighbours as f64 / s.pixels.max(1) as f64,
-            s.cut_triples
+            s.cut_triples,
+            s.kept_own
         ),
         None => "off (every pixel keeps its own normal)".to_string(),
     };

@@ -49,6 +49,15 @@
 //! on the project's rough-metal blob with 1% noise: 5.06° after the first solve, 3.8°,
 //! 2.9° and 1.97° after 1, 2 and 4 passes.
 //!
+//! **A pixel's own data may refuse** ([`Options::reject`]): the quadratic A is the
+//! curvature at the match, and says nothing of a dark pixel whose samples are bounds
+//! (the zeros of an 8-bit metal), although a normal that would light one of its zeros is
+//! plainly wrong. After the passes, every pixel whose own data's cost (censored samples
+//! as bounds, [`info::cost_increase`]) rises by more than `reject` from its match to
+//! the solution keeps its match. Measured on the project's 8-bit renders (blob, sphere
+//! r 100, 16 lights, exposed for the peak; `tests/camera_images.rs`), rough metal: 3.88°
+//! without the rule and the censoring, 1.05° with them, the lookup alone 1.16°.
+//!
 //! **Confidence afterwards**: the share of the pixel's posterior information that is its
 //! own, s = tr A / tr(A + P) with P the prior's diagonal, is returned in
 //! [`Output::own_share`]; the confidence is multiplied by s, so pixels decided by their
@@ -60,10 +69,12 @@
 
 mod contour;
 pub mod info;
+pub mod levels;
 pub mod noise;
 mod solve;
 
 pub use info::{angular_sigma_deg, Evidence, MAX_SIGMA_DEG};
+pub use levels::{Censor, Levels};
 pub use noise::{NoiseModel, NoiseSampler};
 
 use crate::error::{Error, Result};
@@ -100,6 +111,12 @@ pub struct Options {
     /// (u − û)ᵀ A (u − û) (dimensionless; 25 = 5 standard errors): a pixel the solution
     /// moved further is re-linearised at its current normal. Default 25.
     pub trust: f32,
+    /// [`solve_table`]: a pixel keeps its own match where its own data reject the
+    /// spatial solution: where their cost there exceeds that at the match by more than
+    /// this (units of the noise variance, i.e. twice a log-likelihood ratio; censored
+    /// samples as bounds, see [`info::cost_increase`]). Default 9 (about 3σ; χ² with
+    /// two degrees of freedom, 1%).
+    pub reject: f32,
 }
 
 impl Default for Options {
@@ -112,6 +129,7 @@ impl Default for Options {
             shadow_level: lut::Options::default().shadow_level,
             passes: 4,
             trust: 25.0,
+            reject: 9.0,
         }
     }
 }
@@ -140,6 +158,9 @@ pub struct Stats {
     pub decided_by_neighbours: usize,
     /// Triples (row or column) of the prior cut at a discontinuity.
     pub cut_triples: usize,
+    /// Pixels that kept their own match because their own data rejected the spatial
+    /// solution ([`Options::reject`]; [`solve_table`] only).
+    pub kept_own: usize,
     /// Levels of the coarse-to-fine solve.
     pub levels: usize,
     /// Conjugate-gradient iterations, all levels together.
@@ -202,14 +223,30 @@ pub fn solve_lookup(
     opts: &Options,
 ) -> Result<Output> {
     let level = opts.shadow_level;
-    let ev = info::from_table(stack, mask, table, normals, albedo, noise, level);
-    solve_relinearised(ev, mask, opts, |normals, far, ev| {
-        let lin = info::linearise(stack, mask, table, normals, albedo, noise, level, far);
+    let censor = Censor::new(stack, mask, noise.step);
+    let model = (noise, &censor);
+    let ev = info::from_table(stack, mask, table, normals, albedo, model, level);
+    let (mut out, ev) = solve_relinearised(ev, mask, opts, |normals, far, ev| {
+        let lin = info::linearise(stack, mask, table, normals, albedo, model, level, far);
         for (i, _) in far.iter().enumerate().filter(|(_, &f)| f) {
             (ev.u[i], ev.a[i], ev.g[i]) = (lin.u[i], lin.a[i], lin.g[i]);
         }
         Ok(())
-    })
+    })?;
+    keep_own_where_rejected(
+        &mut out,
+        (&ev, normals),
+        mask,
+        noise,
+        opts,
+        |solution, moved| {
+            let pair = (normals, solution);
+            Ok(info::cost_increase(
+                stack, mask, table, pair, albedo, model, level, moved,
+            ))
+        },
+    )?;
+    Ok(out)
 }
 
 /// [`solve_lookup`] from the evidence of the lookup's matches (`ev`, from
@@ -218,20 +255,24 @@ pub fn solve_lookup(
 /// ([`info::linearise`]), leaving the other pixels alone; for a capture read by row
 /// bands, which re-reads the bands that hold such pixels. The costs are swapped into
 /// `ev` in place, and the matches' quadratics of the few re-linearised pixels kept
-/// aside, so that no second H×W copy of the evidence is made.
+/// aside, so that no second H×W copy of the evidence is made. Returns the solution and
+/// `ev` as it came (the matches' evidence), for [`keep_own_where_rejected`].
 pub fn solve_relinearised(
     mut ev: Evidence,
     mask: &Mask,
     opts: &Options,
     mut relinearise: impl FnMut(&NormalMap, &[bool], &mut Evidence) -> Result<()>,
-) -> Result<Output> {
+) -> Result<(Output, Evidence)> {
     let mut out = solve(&ev, mask, opts)?;
     let mut iterations = out.stats.iterations;
     // (pixel, u, A) of the match of every pixel re-linearised by the last pass
     let mut matches: Vec<(usize, [f32; 2], [f32; 3])> = Vec::new();
-    for _ in 0..opts.passes {
+    for pass in 0..=opts.passes {
         for (i, u, a) in matches.drain(..) {
             (ev.u[i], ev.a[i], ev.g[i]) = (u, a, [0.0; 2]);
+        }
+        if pass == opts.passes {
+            break;
         }
         let far = outside_trust(&ev, mask, &out.normals, opts.trust);
         if !far.iter().any(|&f| f) {
@@ -250,7 +291,53 @@ pub fn solve_relinearised(
         iterations += out.stats.iterations;
     }
     out.stats.iterations = iterations;
-    Ok(out)
+    ev.g = Vec::new();
+    Ok((out, ev))
+}
+
+/// The rule that a pixel is decided by its neighbours only where its own evidence cannot
+/// tell: every pixel whose own data reject the spatial normal (their cost rises by more
+/// than [`Options::reject`] from the match's, `rise(solution, moved)`: for the `moved`
+/// pixels, [`info::cost_increase`] from the `matches` to the solution) gets back its
+/// match, with own share 1 and the standard error of its match (`ev`, the matches'
+/// evidence). The quadratic information A cannot make this test: it is the curvature at
+/// the match, and a dark pixel whose samples are bounds (zeros of an 8-bit image) has
+/// almost none, although a normal that would light one of its zeros is plainly wrong.
+///
+/// Applied only where the noise is quantisation-limited
+/// ([`NoiseModel::quantisation_limited`]): under real Gaussian noise the match has
+/// fitted part of the noise, its own cost then rises at any other normal, and the rule
+/// would refuse the neighbours' good normals (measured: 1%-noise rough metal 1.90 →
+/// 2.58°).
+pub fn keep_own_where_rejected(
+    out: &mut Output,
+    (ev, matches): (&Evidence, &NormalMap),
+    mask: &Mask,
+    noise: &NoiseModel,
+    opts: &Options,
+    rise: impl FnOnce(&NormalMap, &[bool]) -> Result<Vec<f32>>,
+) -> Result<()> {
+    out.stats.kept_own = 0;
+    if !noise.quantisation_limited() {
+        return Ok(());
+    }
+    let moved: Vec<bool> = (0..mask.data.len())
+        .map(|i| mask.data[i] && out.normals.data[i] != matches.data[i])
+        .collect();
+    let rise = rise(&out.normals, &moved)?;
+    let mut kept = 0;
+    for (i, _) in rise.iter().enumerate().filter(|(_, &d)| d > opts.reject) {
+        out.normals.data[i] = matches.data[i];
+        out.own_share.data[i] = 1.0;
+        out.sigma_deg.data[i] = angular_sigma_deg(ev.u[i], ev.a[i]);
+        kept += 1;
+    }
+    out.stats.kept_own = kept;
+    out.stats.decided_by_neighbours = (0..mask.data.len())
+        .filter(|&i| mask.data[i] && out.own_share.data[i] < 0.5)
+        .count();
+    out.stats.mean_sigma_deg = mean_in(&out.sigma_deg, mask);
+    Ok(())
 }
 
 /// Mask pixels whose normal in `normals` lies outside the trust region of their match:
@@ -392,6 +479,7 @@ fn finish(
         pixels,
         decided_by_neighbours: in_mask(&own_share).iter().filter(|&&s| s < 0.5).count(),
         cut_triples: count_cuts(fine, &mask.data),
+        kept_own: 0,
         levels: levels.len(),
         iterations,
         mean_sigma_deg: mean_in(&sigma_deg, mask),

@@ -1,5 +1,15 @@
-//! Signal-dependent sensor noise, σ²(I) = σ₀² + g·I (read noise + shot noise), measured
-//! on the images themselves.
+//! Signal-dependent sensor noise, σ²(I) = max(σ₀² + g·I, Δ²/12) (read noise + shot
+//! noise, never below the quantisation's), measured on the images themselves.
+//!
+//! Quantisation: a sample rounded to steps of Δ carries an error uniform in ±Δ/2, of
+//! variance Δ²/12 — the least noise an 8-bit image has, however smooth the scene (and
+//! the only noise of a clean render). Δ is found from the images: in each image the
+//! smallest positive difference between two distinct sample values of the mask (all
+//! levels are multiples of Δ, and a natural image uses neighbouring levels), the median
+//! over the images ([`Levels::step`]); float images give a negligible Δ. It is a
+//! floor, not a term of the fit: on quantised data the residuals below measure it
+//! except where a region is flat at one level (a metal's dark side, all zeros), where
+//! they measure nothing and the fit alone would claim noise-free samples.
 //!
 //! Each sample's residual against a local quadratic is taken with Immerkær's 3×3 mask
 //! N = [1 −2 1; −2 4 −2; 1 −2 1] (the product of the second differences along rows and
@@ -11,6 +21,7 @@
 //! Use it on a calibration sphere (mask = the sphere's disc) or on a target (its mask):
 //! only pixels whose whole 3×3 neighbourhood lies in the mask count.
 
+use super::levels::{Censor, Levels};
 use crate::image::{ImageStack, Mask};
 
 /// Number of intensity bins of the fit.
@@ -18,13 +29,16 @@ const BINS: usize = 8;
 /// At most this many samples are used (a regular subsample beyond).
 const MAX_SAMPLES: usize = 400_000;
 
-/// σ²(I) = `read`² + `gain` · I, in the images' intensity units.
+/// σ²(I) = max(`read`² + `gain` · I, `step`²/12), in the images' intensity units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NoiseModel {
     /// Standard deviation at zero signal (read noise), intensity units.
     pub read: f32,
     /// Slope of the variance with the signal (shot noise), intensity units.
     pub gain: f32,
+    /// Quantisation step Δ of the samples (intensity units; 0 = unquantised): the
+    /// variance is never below Δ²/12.
+    pub step: f32,
 }
 
 impl NoiseModel {
@@ -33,13 +47,15 @@ impl NoiseModel {
         NoiseModel {
             read: sigma,
             gain: 0.0,
+            step: 0.0,
         }
     }
 
     /// Variance of a sample of (noise-free) value `i`.
     #[inline]
     pub fn variance(&self, i: f32) -> f32 {
-        self.read * self.read + self.gain * i.max(0.0)
+        let fit = self.read * self.read + self.gain * i.max(0.0);
+        fit.max(self.step * self.step / 12.0)
     }
 
     /// Standard deviation of a sample of value `i`.
@@ -48,12 +64,25 @@ impl NoiseModel {
         self.variance(i).sqrt()
     }
 
+    /// Whether the quantisation is (about) all the noise there is in the dark: the
+    /// fitted read and shot noise at 5% of full scale (I = 0.05) is within 4× the
+    /// quantisation variance Δ²/12. True for clean 8-bit images; false for 16-bit or
+    /// float images with real sensor noise, whose Gaussian model the fit describes. Taken
+    /// in the dark, where the samples that are bounds are: the fit's slope also takes up
+    /// the residuals of sharp highlights (a clean 8-bit metal vase: read 1.5e-4, gain
+    /// 1.8e-5, Δ 3.9e-3, 7× Δ²/12 at mid scale but 0.7× at 5%).
+    pub fn quantisation_limited(&self) -> bool {
+        let floor = self.step * self.step / 12.0;
+        floor > 0.0 && self.read * self.read + self.gain * 0.05 <= 4.0 * floor
+    }
+
     /// The noise with the larger variance at every level (of two estimates, e.g. the
     /// sphere's and the target's).
     pub fn max(self, other: NoiseModel) -> NoiseModel {
         NoiseModel {
             read: self.read.max(other.read),
             gain: self.gain.max(other.gain),
+            step: self.step.max(other.step),
         }
     }
 
@@ -66,6 +95,17 @@ impl NoiseModel {
         let mut sampler = NoiseSampler::new(mask, stack.k);
         sampler.feed(stack, 0);
         sampler.finish()
+    }
+
+    /// [`Self::estimate`], and the censoring bounds of the same samples
+    /// ([`Censor`], with the model's quantisation step).
+    pub fn estimate_with_censor(stack: &ImageStack, mask: &Mask) -> (NoiseModel, Censor) {
+        if (stack.width, stack.height) != (mask.width, mask.height) {
+            return (NoiseModel::constant(0.0), Censor::none(stack.k));
+        }
+        let mut sampler = NoiseSampler::new(mask, stack.k);
+        sampler.feed(stack, 0);
+        sampler.finish_with_censor()
     }
 }
 
@@ -86,6 +126,8 @@ pub struct NoiseSampler {
     /// The last rows fed (pixel-major), up to two, and the index of the first.
     tail: (Vec<f32>, usize),
     samples: Vec<(f32, f32)>,
+    /// The quantisation step and the censoring bounds, fed the same bands.
+    levels: Levels,
 }
 
 impl NoiseSampler {
@@ -111,6 +153,7 @@ impl NoiseSampler {
             next: 1,
             tail: (Vec::new(), 0),
             samples: Vec::with_capacity((inside * k / stride).min(MAX_SAMPLES) + 1),
+            levels: Levels::new(mask, k),
         }
     }
 
@@ -118,6 +161,7 @@ impl NoiseSampler {
     /// of the mask's width; bands fed in order, from the top, without gaps). A band of
     /// another width or K is ignored, as `estimate` ignores a stack of the wrong size.
     pub fn feed(&mut self, band: &ImageStack, row0: usize) {
+        self.levels.feed(band, row0);
         let (w, h, k) = (self.mask.width, self.mask.height, self.k);
         if band.width != w || band.k != k || w < 3 || h < 3 || band.height == 0 {
             return;
@@ -173,10 +217,20 @@ impl NoiseSampler {
     /// The model of the samples taken (a zero model when fewer than 100 pixels had a
     /// full 3×3 neighbourhood).
     pub fn finish(self) -> NoiseModel {
-        if self.samples.len() < 100 * self.k.max(1) {
-            return NoiseModel::constant(0.0);
-        }
-        fit(self.samples)
+        self.finish_with_censor().0
+    }
+
+    /// [`Self::finish`], and the censoring bounds of the samples fed
+    /// ([`Levels::censor`] with the model's step).
+    pub fn finish_with_censor(self) -> (NoiseModel, Censor) {
+        let step = self.levels.step();
+        let censor = self.levels.censor(step);
+        let model = if self.samples.len() < 100 * self.k.max(1) {
+            NoiseModel::constant(0.0)
+        } else {
+            fit(self.samples)
+        };
+        (NoiseModel { step, ..model }, censor)
     }
 }
 
@@ -216,6 +270,7 @@ fn fit(mut samples: Vec<(f32, f32)>) -> NoiseModel {
     NoiseModel {
         read: a.max(0.0).sqrt() as f32,
         gain: g as f32,
+        step: 0.0,
     }
 }
 
@@ -272,6 +327,28 @@ mod tests {
             }
             assert_eq!(sampler.finish(), whole, "bands of {rows} rows");
         }
+    }
+
+    #[test]
+    fn quantised_flat_images_have_the_quantisation_variance() {
+        // a metal's dark side: most samples at 0, a ramp of 8-bit levels elsewhere
+        let (w, h, k) = (60, 50, 3);
+        let mut s = ImageStack::zeros(w, h, k);
+        for r in 0..h {
+            for c in 0..w {
+                for (l, v) in s.pixel_flat_mut(r * w + c).iter_mut().enumerate() {
+                    let x = (c as f32 - 40.0).max(0.0) * (0.003 + 0.001 * l as f32);
+                    *v = (x * 255.0).round() / 255.0 / 0.7; // 8-bit, then ÷ an intensity
+                }
+            }
+        }
+        let est = NoiseModel::estimate(&s, &Mask::full(w, h));
+        assert!((est.step - 1.0 / 255.0 / 0.7).abs() < 1e-6, "{est:?}");
+        let floor = est.step / 12f32.sqrt();
+        assert!(est.sigma(0.0) >= floor * 0.999, "{est:?}");
+        // float samples: no visible step
+        let (f, m) = noisy_ramp(0.01, 0.0);
+        assert!(NoiseModel::estimate(&f, &m).step < 1e-5);
     }
 
     #[test]
