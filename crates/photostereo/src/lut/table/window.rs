@@ -99,8 +99,12 @@ pub(super) fn auto_smooth(window: &Window, circle: &Circle, rim: f64) -> f64 {
 
 /// Noise of the sphere images, estimated from the residual of each pixel against the
 /// mean of its 4 neighbours (σ ≈ 1.4826 · median |residual| / √1.25) over pixels well
-/// inside the rim; returns (σ, typical sample) in intensity units, the typical sample
-/// being the median of the samples above 3σ.
+/// inside the rim, and never below the quantisation's Δ/√12 (Δ the smallest step
+/// between distinct sample values of a light, median over the lights; as
+/// `spatial::levels`): on an 8-bit sphere the residuals measure nothing where whole
+/// regions sit at one level (a metal's dark side), although every sample carries ±Δ/2.
+/// Returns (σ, typical sample) in intensity units, the typical sample being the median
+/// of the samples above 3σ.
 pub fn estimate_noise(window: &Window, circle: &Circle, rim: f64) -> (f32, f32) {
     let ws = &window.stack;
     let k = ws.k;
@@ -127,7 +131,8 @@ pub fn estimate_noise(window: &Window, circle: &Circle, rim: f64) -> (f32, f32) 
     if res.is_empty() {
         return (0.0, 0.0);
     }
-    let sigma = 1.4826 * median(&mut res) / 1.25f32.sqrt();
+    let quantisation = quantisation_step(&values, k) / 12f32.sqrt();
+    let sigma = (1.4826 * median(&mut res) / 1.25f32.sqrt()).max(quantisation);
     let mut lit: Vec<f32> = values.into_iter().filter(|&v| v > 3.0 * sigma).collect();
     (
         sigma,
@@ -139,7 +144,82 @@ pub fn estimate_noise(window: &Window, circle: &Circle, rim: f64) -> (f32, f32) 
     )
 }
 
+/// Median over the `k` lights of `values` (pixel-major, K per pixel) of the smallest
+/// positive difference between two distinct values of the light; 0 when no light has
+/// two distinct values.
+fn quantisation_step(values: &[f32], k: usize) -> f32 {
+    let mut steps: Vec<f32> = (0..k)
+        .filter_map(|l| {
+            let mut v: Vec<f32> = (values.iter().skip(l).step_by(k))
+                .copied()
+                .filter(|v| v.is_finite())
+                .collect();
+            v.sort_unstable_by(f32::total_cmp);
+            v.dedup();
+            v.windows(2).map(|w| w[1] - w[0]).min_by(f32::total_cmp)
+        })
+        .collect();
+    if steps.is_empty() {
+        0.0
+    } else {
+        median(&mut steps)
+    }
+}
+
 fn median(v: &mut [f32]) -> f32 {
     let mid = v.len() / 2;
     *v.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sphere r 30 with a sharp lobe per light (most samples dark), 8-bit or float.
+    fn lobed_sphere(bits8: bool) -> (Window, Circle) {
+        let (w, k) = (64usize, 4usize);
+        let circle = Circle {
+            cx: 32.0,
+            cy: 32.0,
+            radius: 30.0,
+        };
+        let mut stack = ImageStack::zeros(w, w, k);
+        for r in 0..w {
+            for c in 0..w {
+                let (x, y) = (
+                    (c as f64 + 0.5 - 32.0) / 30.0,
+                    (32.0 - r as f64 - 0.5) / 30.0,
+                );
+                let z = (1.0 - x * x - y * y).max(0.0).sqrt();
+                for (l, v) in stack.pixel_flat_mut(r * w + c).iter_mut().enumerate() {
+                    let a = l as f64 * 1.5;
+                    let d = (0.5 * a.cos() * x + 0.5 * a.sin() * y + 0.87 * z).max(0.0);
+                    let i = d.powi(40) as f32;
+                    *v = if bits8 {
+                        (i * 255.0).round() / 255.0
+                    } else {
+                        i
+                    };
+                }
+            }
+        }
+        let window = Window {
+            col0: 0,
+            row0: 0,
+            stack,
+        };
+        (window, circle)
+    }
+
+    #[test]
+    fn quantised_sphere_noise_is_at_least_the_quantisation() {
+        let floor = 1.0 / 255.0 / 12f32.sqrt();
+        let (window, circle) = lobed_sphere(true);
+        let (sigma, _) = estimate_noise(&window, &circle, 2.0);
+        assert!(sigma >= 0.999 * floor, "{sigma} against {floor}");
+        // the same sphere in floats: smooth, no step to floor it
+        let (window, circle) = lobed_sphere(false);
+        let (sigma, _) = estimate_noise(&window, &circle, 2.0);
+        assert!(sigma < 0.1 * floor, "{sigma}");
+    }
 }
