@@ -33,6 +33,7 @@ fn setting_flag(setting: Setting) -> Option<&'static str> {
         Setting::SphereSearch => "give the sphere's mask with --sphere-mask FILE",
         Setting::FacetBlock => "give a larger --block (pixels)",
         Setting::Memory => "set the budget with --memory SIZE (e.g. --memory 8G)",
+        Setting::CurvatureScale => "--curvature-sigma PX takes pixels >= 0 (0 = no smoothing)",
         _ => return None,
     })
 }

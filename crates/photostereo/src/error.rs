@@ -123,6 +123,8 @@ pub enum Setting {
     FacetBlock,
     /// The memory budget of a run (bytes; [`crate::plan`]).
     Memory,
+    /// The smoothing scale of the curvature maps (pixels; [`crate::curvature`]).
+    CurvatureScale,
 }
 
 impl Error {

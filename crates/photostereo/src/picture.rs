@@ -27,6 +27,9 @@ pub enum ColorMap {
     Viridis,
     /// Black → red → yellow → white (matplotlib's inferno), for errors.
     Inferno,
+    /// Blue → light grey → red (Moreland's diverging cool–warm), for signed maps with 0
+    /// in the middle (curvature).
+    CoolWarm,
 }
 
 const VIRIDIS: [[u8; 3]; 9] = [
@@ -53,6 +56,18 @@ const INFERNO: [[u8; 3]; 9] = [
     [252, 255, 164],
 ];
 
+const COOL_WARM: [[u8; 3]; 9] = [
+    [59, 76, 192],
+    [85, 114, 226],
+    [124, 159, 249],
+    [170, 199, 253],
+    [221, 221, 221],
+    [246, 183, 156],
+    [241, 134, 104],
+    [213, 79, 64],
+    [180, 4, 38],
+];
+
 impl ColorMap {
     /// Colour of `t` in [0, 1] (clamped).
     pub fn color(self, t: f32) -> [u8; 3] {
@@ -68,6 +83,7 @@ impl ColorMap {
             }
             ColorMap::Viridis => &VIRIDIS,
             ColorMap::Inferno => &INFERNO,
+            ColorMap::CoolWarm => &COOL_WARM,
         };
         let x = t * (stops.len() - 1) as f32;
         let i = (x.floor() as usize).min(stops.len() - 2);
@@ -287,6 +303,17 @@ pub fn depth_picture(depth: &GrayImage, mask: Option<&Mask>) -> (Rgb, (f32, f32)
     (scalar_rgb(depth, mask, lo, hi, ColorMap::Viridis), (lo, hi))
 }
 
+/// A signed map (curvature) in cool–warm, symmetric about 0: −`limit` blue, 0 grey,
+/// +`limit` red, beyond saturated; outside and NaN [`BACKGROUND`].
+pub fn signed_picture(img: &GrayImage, mask: Option<&Mask>, limit: f32) -> Rgb {
+    let limit = if limit > 0.0 && limit.is_finite() {
+        limit
+    } else {
+        1.0
+    };
+    scalar_rgb(img, mask, -limit, limit, ColorMap::CoolWarm)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -297,6 +324,7 @@ mod tests {
         assert_eq!(ColorMap::Viridis.color(1.0), [253, 231, 37]);
         assert_eq!(ColorMap::Inferno.color(2.0), [252, 255, 164]);
         assert_eq!(ColorMap::Gray.color(0.5), [128, 128, 128]);
+        assert_eq!(ColorMap::CoolWarm.color(0.5), [221, 221, 221]);
     }
 
     #[test]

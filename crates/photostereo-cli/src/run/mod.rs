@@ -103,6 +103,20 @@ pub struct Args {
     /// half of the machine's memory. Not used with --interreflections (whole stack).
     #[arg(long, value_name = "SIZE", value_parser = parse_memory)]
     pub memory: Option<u64>,
+    /// Smoothing scale (Gaussian σ, pixels) of the curvature maps computed from the
+    /// normals: curvature.npy (mean curvature, 1/px, positive where the surface bulges
+    /// toward the camera), gaussian_curvature.npy and curvature.png (blue hollow, red
+    /// bump). Larger = less noise, finer defects flattened. 0 = no smoothing.
+    #[arg(
+        long,
+        value_name = "PX",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
+    pub curvature_sigma: f32,
+    /// Do not compute the curvature maps.
+    #[arg(long, conflicts_with = "curvature_sigma")]
+    pub no_curvature: bool,
 }
 
 fn parse_memory(text: &str) -> std::result::Result<u64, String> {
@@ -180,6 +194,9 @@ fn options(args: &Args) -> Result<pipeline::Options> {
     }
     opts.nik.radiosity.block = args.block.unwrap_or(0);
     opts.memory = args.memory;
+    opts.curvature = (!args.no_curvature).then_some(photostereo::curvature::Options {
+        sigma: args.curvature_sigma,
+    });
     opts.lookup.normalize = args.normalize;
     opts.detect.circle = args.circle;
     opts.detect.region = args.sphere_region;

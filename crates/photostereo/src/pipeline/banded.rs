@@ -252,7 +252,9 @@ fn solve(
     progress: &dyn Progress,
 ) -> Result<(Job, super::Output)> {
     let has_truth = truth.normals.is_some() || truth.depth.is_some();
-    let total = stages::planned(&normals, false) + usize::from(has_truth);
+    let total = stages::planned(&normals, false)
+        + usize::from(has_truth)
+        + usize::from(opts.curvature.is_some());
     let mut st = Stages::new(total, progress);
     let (w, h, k) = (cap.mask.width, cap.mask.height, cap.ds.header.k());
     let method = opts

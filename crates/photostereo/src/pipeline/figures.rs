@@ -75,6 +75,23 @@ pub(super) fn picture_rows(
     f
 }
 
+/// The curvature row: its scale and the picture's colour range.
+pub(super) fn curvature_row(c: &crate::curvature::Curvature) -> (String, String) {
+    let (med, lim) = (c.median_abs_mean, c.display_limit);
+    let radius = if med > 0.0 {
+        format!(" (a sphere of radius {:.0} px)", 1.0 / med)
+    } else {
+        String::new()
+    };
+    (
+        "mean curvature (1/px)".into(),
+        format!(
+            "median |H| {med:.2e}{radius}; curvature.png: blue −{lim:.2e} → red +{lim:.2e} \
+             (99th percentile of |H|)"
+        ),
+    )
+}
+
 /// Confidence below which a lookup is not to be trusted ([`crate::lut`]: 1 = perfect match).
 pub const LOW_CONFIDENCE: f32 = 0.5;
 

@@ -209,6 +209,9 @@ pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress)
 }
 
 pub(super) fn check(inputs: &Inputs, opts: &Options) -> Result<()> {
+    if let Some(c) = &opts.curvature {
+        c.check()?;
+    }
     let ways = usize::from(inputs.sphere.is_some())
         + usize::from(inputs.calibration.is_some())
         + usize::from(inputs.lambertian);

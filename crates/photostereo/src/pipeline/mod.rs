@@ -46,7 +46,7 @@ mod timer;
 use crate::error::{Error, Result};
 use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::Progress;
-use crate::{eval, integrate, interreflect, lambertian, lut, mesh, spatial, sphere};
+use crate::{curvature, eval, integrate, interreflect, lambertian, lut, mesh, spatial, sphere};
 
 pub use checks::NEIGHBOURS_WARN;
 pub use figures::Titles;
@@ -140,6 +140,9 @@ pub struct Options {
     /// the memory budget allows). Smaller bands give finer progress; results do not
     /// depend on it.
     pub max_band_rows: Option<usize>,
+    /// Curvature maps from the normals ([`crate::curvature`]) with these settings;
+    /// `None` = not computed. Default on, smoothing σ = 1 px.
+    pub curvature: Option<curvature::Options>,
 }
 
 // Written out (not derived) so that every new option states its default here.
@@ -157,6 +160,7 @@ impl Default for Options {
             spatial: Some(spatial::Options::default()),
             memory: None,
             max_band_rows: None,
+            curvature: Some(curvature::Options::default()),
         }
     }
 }
@@ -231,6 +235,8 @@ pub struct Output {
     /// The chrome sphere the lights were calibrated from (its circle for the report and
     /// `chrome_overlay.png`), when [`run`] did that.
     pub chrome: Option<sphere::Detection>,
+    /// Mean and Gaussian curvature of the normals (with [`Options::curvature`]).
+    pub curvature: Option<curvature::Curvature>,
 }
 
 /// Run the job in memory; `progress` gets the stage lines and the progress of long stages.
@@ -245,7 +251,9 @@ pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Outpu
         ));
     }
     let has_truth = job.truth.normals.is_some() || job.truth.depth.is_some();
-    let total = stages::planned(&job.normals, opts.interreflections) + usize::from(has_truth);
+    let total = stages::planned(&job.normals, opts.interreflections)
+        + usize::from(has_truth)
+        + usize::from(opts.curvature.is_some());
     let mut st = timer::Stages::new(total, progress);
     let method = opts
         .method
@@ -288,6 +296,12 @@ fn finish(
             &mo,
         )
     })?;
+    let curv = match &opts.curvature {
+        Some(co) => Some(st.run("curvature", |_| {
+            curvature::solve(&est.normals, &job.mask, co)
+        })?),
+        None => None,
+    };
     let accuracy = if has_truth {
         st.run("accuracy", |_| stages::accuracy(job, &est.normals, &depth))?
     } else {
@@ -309,6 +323,9 @@ fn finish(
         }
     }
     figures.extend(figures::picture_rows(job, est.albedo.as_ref(), &depth));
+    if let Some(c) = &curv {
+        figures.push(figures::curvature_row(c));
+    }
     let mut warnings = figures::warnings(job, est.confidence.as_ref(), opts);
     let stats = est.spatial.as_ref().and_then(|s| s.stats.as_ref());
     let (more, rows) = checks::warnings(job, circle.as_ref(), stats, opts);
@@ -335,6 +352,7 @@ fn finish(
         figures,
         warnings,
         chrome: None,
+        curvature: curv,
     })
 }
 

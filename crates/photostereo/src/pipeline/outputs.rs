@@ -23,7 +23,8 @@ pub struct Written {
 
 /// Write every product of `p` into the directory `out` (created): `normals.npy/png`,
 /// `albedo.npy/png`, `confidence.npy/png`, `normals_sigma.npy/png` and `own_share.npy`
-/// (spatial stage), `depth.npy/png`, `mesh.ply`,
+/// (spatial stage), `depth.npy/png`, `mesh.ply`, `curvature.npy/png` and
+/// `gaussian_curvature.npy` (with [`super::Options::curvature`]),
 /// `sphere_overlay.png`, `lights.txt` (Lambertian), `chrome_overlay.png` (lights from a
 /// chrome sphere), `convergence.csv` and plots (those the run has), `report.html` (with
 /// the `report` feature) and `run.json`. `albedo.png` and `depth.png` are the report's
@@ -107,6 +108,13 @@ fn write_maps(out: &Path, job: &Job, p: &Output) -> Result<Vec<&'static str>> {
         mesh::write_ply_binary(&p.mesh, &mut *w)
     })?;
     files.extend(["depth.npy", "depth.png", "mesh.ply"]);
+    if let Some(c) = &p.curvature {
+        io::write_gray_npy(&out.join("curvature.npy"), &c.mean)?;
+        io::write_gray_npy(&out.join("gaussian_curvature.npy"), &c.gaussian)?;
+        let rgb = raster::signed_picture(&c.mean, Some(mask), c.display_limit);
+        io::write_bytes(&out.join("curvature.png"), &raster::encode_png(&rgb)?)?;
+        files.extend(["curvature.npy", "curvature.png", "gaussian_curvature.npy"]);
+    }
     files.extend(write_sides(out, job, p)?);
     Ok(files)
 }

@@ -40,6 +40,11 @@ pub fn build_report(
         r.scalar(caption, s, mask, ColorMap::Viridis)?;
     }
     r.depth(&p.depth);
+    if let Some(c) = &p.curvature {
+        let caption = "mean curvature from the normals (red: bulges toward the camera, \
+                       blue: hollows; curvature.npy)";
+        r.signed(caption, &c.mean, mask, c.display_limit, "1/px")?;
+    }
     if let Some(det) = &p.circle {
         r.png(
             Section::Maps,

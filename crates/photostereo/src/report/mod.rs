@@ -169,6 +169,27 @@ impl Report {
         Ok(self)
     }
 
+    /// A signed map (curvature) in cool–warm, symmetric: −`limit` blue → 0 grey →
+    /// +`limit` red ([`raster::signed_picture`]).
+    pub fn signed(
+        &mut self,
+        caption: &str,
+        img: &GrayImage,
+        mask: Option<&Mask>,
+        limit: f32,
+        unit: &str,
+    ) -> Result<&mut Self> {
+        check_mask(mask, img.width, img.height, caption)?;
+        let rgb = raster::signed_picture(img, mask, limit);
+        let legend = Legend {
+            cmap: ColorMap::CoolWarm,
+            lo: format!("≤ −{limit:.3} {unit}"),
+            hi: format!("≥ +{limit:.3} {unit}"),
+        };
+        self.push(Section::Maps, caption, rgb, Some(legend));
+        Ok(self)
+    }
+
     /// Depth in false colour (viridis, far → near: [`raster::depth_picture`]), NaN outside
     /// the mask.
     pub fn depth(&mut self, depth: &DepthMap) -> &mut Self {
