@@ -30,7 +30,10 @@ fn setting_flag(setting: Setting) -> Option<&'static str> {
         Setting::Lights => "give --lights FILE or --chrome CHROME_DIR",
         Setting::ImageScale => "--image-scale F takes a finite factor > 0",
         Setting::Circle => "--circle cx,cy,r gives the circle by hand (pixels)",
-        Setting::SphereSearch => "give the sphere's mask with --sphere-mask FILE",
+        Setting::SphereSearch => {
+            "give --sphere-region x,y,w,h around the sphere, its mask with --sphere-mask FILE, or \
+             its circle with --circle cx,cy,r"
+        }
         Setting::FacetBlock => "give a larger --block (pixels)",
         Setting::Memory => "set the budget with --memory SIZE (e.g. --memory 8G)",
         Setting::CurvatureScale => "--curvature-sigma PX takes pixels >= 0 (0 = no smoothing)",

@@ -17,7 +17,10 @@ photostereo calibrate data/vase/sphere --circle 102,102,100 --rim 3 -o sphere_gi
 photostereo calibrate data/matte_ball -o matte.lut\n\n\
 SPHERE_DIR holds the K images of a sphere of the target's material under the target's lights \
 (DiLiGenT layout). The sphere is found in the maximum of the images; NAME_overlay.png (the circle \
-on that image; NAME = the table's file name without extension) is written beside the table: check it."
+on that image; NAME = the table's file name without extension) is written beside the table: check it.\n\n\
+Sphere and target in the same images (one folder, the sphere in a corner, mask.png marking the \
+target): give --sphere-region around the sphere; the folder's mask.png is then the target's and is \
+not used to find the sphere."
 )]
 pub struct Args {
     /// Directory with the sphere's images.
@@ -28,12 +31,14 @@ pub struct Args {
     #[arg(long, value_name = "CX,CY,R", value_parser = crate::lights::parse_circle)]
     circle: Option<Circle>,
     /// Search the sphere only in this window (when the sphere shares the images with the
-    /// target): left column, top row, width, height.
+    /// target): left column, top row, width, height. SPHERE_DIR/mask.png is then the
+    /// target's mask and is not used for the search (--sphere-mask still is).
     #[arg(long, value_name = "X,Y,W,H", value_parser = crate::lights::parse_region)]
     sphere_region: Option<(usize, usize, usize, usize)>,
     /// Search the sphere only inside this mask (PNG/TIFF/.npy, non-zero = sphere);
-    /// default SPHERE_DIR/mask.png if present, as in `run --sphere`. The mask only says
-    /// where to look: the circle is always fitted to the rim in the images.
+    /// default SPHERE_DIR/mask.png if present and no --sphere-region is given, as in
+    /// `run --sphere`. The mask only says where to look: the circle is always fitted to
+    /// the rim in the images.
     #[arg(long = "sphere-mask", visible_alias = "mask", value_name = "MASK")]
     mask: Option<PathBuf>,
     /// Free-text name of the sphere's material, stored in the table.
@@ -71,13 +76,18 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     };
     let data = io::load_dataset(&args.dir, &load)
         .with_context(|| format!("loading the sphere images from {}", args.dir.display()))?;
-    // the mask (--mask, else the folder's mask.png, the same rule as `run --sphere`)
-    // restricts the search; the circle itself always comes from the images' rim
-    let detect = DetectOptions {
+    // the mask (--sphere-mask, else the folder's mask.png unless --sphere-region is
+    // given, the same rule as `run --sphere`) restricts the search; the circle itself
+    // always comes from the images' rim
+    let given = DetectOptions {
         circle: args.circle,
         region: args.sphere_region,
-        mask: data.mask.clone(),
+        mask: args.mask.as_ref().and(data.mask.clone()),
         ..DetectOptions::default()
+    };
+    let detect = DetectOptions {
+        mask: given.search_mask(data.mask.clone()),
+        ..given
     };
     let det = sphere::detect(&data.stack, &detect)
         .with_context(|| format!("finding the sphere in {}", args.dir.display()))?;
@@ -105,7 +115,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     }
     // a given circle is checked against the one found above; a found one here
     if args.circle.is_none() {
-        let shape = sphere::checks::check_shape(&det, data.mask.as_ref());
+        let shape = sphere::checks::check_shape(&det, detect.mask.as_ref());
         say(shape.describe());
         if let Some(w) = shape.warning() {
             eprintln!("warning: {w}");

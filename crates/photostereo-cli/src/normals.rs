@@ -25,7 +25,11 @@ low where lights are shadowed or the match is poor), residual.npy, albedo.npy (-
 each material and its standard error; the confidence is low where the mix is undetermined), \
 normals_sigma.npy/png (angular standard error of each normal from its own data, degrees, from \
 the noise measured on the target) and own_share.npy (spatial stage: 1 = the pixel's own data \
-decided its normal, 0 = its neighbours did; the confidence is multiplied by it).")]
+decided its normal, 0 = its neighbours did; the confidence is multiplied by it).\n\n\
+Sphere and target in the same images (one folder, mask.png marking the target): make the table \
+with `calibrate TARGET_DIR --sphere-region x,y,w,h` (the region around the sphere; the folder's \
+mask.png is not used to find it), then `normals TARGET_DIR --lut TABLE`: the mask is the \
+target's. Keep the sphere out of it: without a mask every pixel, the sphere's too, is solved.")]
 pub struct Args {
     /// Directory with the target's images (DiLiGenT layout).
     #[arg(value_name = "TARGET_DIR")]

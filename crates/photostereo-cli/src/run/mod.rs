@@ -18,7 +18,10 @@ use crate::Global;
     photostereo run --lut sphere.lut --normalize data/vase -o out/vase_lut\n  \
     photostereo run --sphere data/vase/sphere --circle 102,102,100 data/vase -o out/vase_circle\n  \
     photostereo run --chrome data/chrome data/matte_ball -o out/matte_ball\n  \
-    photostereo run --lambertian --interreflections data/vgroove -o out/vgroove_run")]
+    photostereo run --lambertian --interreflections data/vgroove -o out/vgroove_run\n\n\
+    Sphere and target in the same images (one folder, the sphere in a corner, mask.png marking \
+    the target): give the folder as both --sphere and TARGET, with --sphere-region around the \
+    sphere (or --sphere-mask, or --circle); the folder's mask.png is the target's.")]
 pub struct Args {
     /// Target dataset directory (DiLiGenT layout: images, optional filenames.txt,
     /// light_directions.txt, light_intensities.txt, mask.png).
@@ -35,11 +38,15 @@ pub struct Args {
     #[arg(long, value_name = "CX,CY,R", requires = "sphere", value_parser = crate::lights::parse_circle)]
     pub circle: Option<Circle>,
     /// Search the sphere only in this window of its images (as `calibrate
-    /// --sphere-region`): left column, top row, width, height.
+    /// --sphere-region`): left column, top row, width, height. The sphere folder's
+    /// mask.png is then not used for the search. Sphere and target in the same images:
+    /// give the target folder as --sphere and this window around the sphere; mask.png
+    /// marks the target, and target pixels inside the window are left out (a warning
+    /// says how many).
     #[arg(long, value_name = "X,Y,W,H", requires = "sphere", value_parser = crate::lights::parse_region)]
     pub sphere_region: Option<(usize, usize, usize, usize)>,
     /// Search the sphere only inside this mask (PNG/TIFF/.npy, non-zero = sphere) instead
-    /// of the sphere folder's mask.png (as `calibrate --mask`).
+    /// of the sphere folder's mask.png (as `calibrate --sphere-mask`).
     #[arg(long, value_name = "MASK", requires = "sphere")]
     pub sphere_mask: Option<PathBuf>,
     /// A lookup table from `photostereo calibrate` instead of a sphere folder.

@@ -15,7 +15,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use super::load::{check, lights, radiance_scale, scale_is_known, subtitle};
+use super::load::{check, leave_out_sphere, lights, radiance_scale, scale_is_known, subtitle};
 use super::spatial_stage::{adopt, own_only, SpatialInfo};
 use super::stages;
 use super::timer::Stages;
@@ -174,9 +174,10 @@ pub(super) fn run(
     } else {
         None
     };
-    let mask = ds.mask.clone().unwrap_or_else(|| Mask::full(w, h));
+    let mut mask = ds.mask.clone().unwrap_or_else(|| Mask::full(w, h));
     let mut stages = Vec::new();
     let (mut chrome, mut warnings) = (None, Vec::new());
+    warnings.extend(leave_out_sphere(inputs, opts, &mut mask)?);
     let normals = match (&inputs.calibration, sphere) {
         (Some(cal), _) => Normals::Calibrated(Box::new(cal.clone())),
         (None, Some((dir, _))) => {

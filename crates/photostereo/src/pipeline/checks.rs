@@ -26,7 +26,9 @@ pub(super) fn warnings(
             },
             Some(det),
         ) => {
-            let mask = opts.detect.mask.as_ref().or(sphere_mask.as_ref());
+            // the mask the sphere was searched in (not the folder's with a search window)
+            let mask = opts.detect.search_mask(sphere_mask.clone());
+            let mask = mask.as_ref();
             if let Some(given) = &opts.detect.circle {
                 let d = sphere::DetectOptions {
                     mask: mask.cloned(),

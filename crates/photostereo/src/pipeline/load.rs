@@ -107,11 +107,12 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         image_scale = Some((scale, from));
     }
     let mut stages = vec![("load".to_string(), t0.elapsed().as_secs_f64())];
-    let mask = target
+    let mut mask = target
         .mask
         .clone()
         .unwrap_or_else(|| Mask::full(target.stack.width, target.stack.height));
     let (mut chrome, mut warnings) = (None, Vec::new());
+    warnings.extend(leave_out_sphere(inputs, opts, &mut mask)?);
     let normals = if let Some(cal) = &inputs.calibration {
         Normals::Calibrated(Box::new(cal.clone()))
     } else if let Some(dir) = &inputs.sphere {
@@ -206,6 +207,77 @@ pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress)
         report: written.report,
         json: written.json,
     })
+}
+
+/// Margin (pixels) around a given circle inside which target pixels count as the
+/// sphere's (its rim is blurred over a pixel or two).
+const SPHERE_MARGIN_PX: f64 = 2.0;
+
+/// Whether the sphere's images are the target's: the classic setup, one folder with the
+/// sphere in a corner of the images and `mask.png` marking the target.
+pub(super) fn sphere_is_target(inputs: &Inputs) -> bool {
+    let Some(dir) = &inputs.sphere else {
+        return false;
+    };
+    match (dir.canonicalize(), inputs.target.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => *dir == inputs.target,
+    }
+}
+
+/// When the sphere shares the target's images ([`sphere_is_target`]): the pixels where
+/// the sphere is searched (the given circle widened by 2 px, else the search window
+/// within the given sphere mask, else that mask) are the sphere's, and are left out of
+/// the target's `mask`; returns the warning that says so when the mask held any.
+/// Without a circle, window or sphere mask nothing is left out.
+///
+/// Errors: [`Error::SizeMismatch`] for a sphere mask of another size than the images.
+pub(super) fn leave_out_sphere(
+    inputs: &Inputs,
+    opts: &Options,
+    mask: &mut Mask,
+) -> Result<Option<String>> {
+    if !sphere_is_target(inputs) {
+        return Ok(None);
+    }
+    let d = &opts.detect;
+    let (w, h) = (mask.width, mask.height);
+    let inside_region = |r: usize, c: usize| {
+        d.region
+            .is_none_or(|(x, y, rw, rh)| (x..x + rw).contains(&c) && (y..y + rh).contains(&r))
+    };
+    let sphere = match (&d.circle, &d.region, &d.mask) {
+        (Some(circle), _, _) => {
+            let r = circle.radius + SPHERE_MARGIN_PX;
+            Mask::from_fn(w, h, |row, col| {
+                let (x, y) = (col as f64 + 0.5 - circle.cx, row as f64 + 0.5 - circle.cy);
+                x * x + y * y <= r * r
+            })
+        }
+        // nothing says where the sphere is: the folder's mask.png is searched (the rule
+        // of a sphere folder), and a target given as its own sphere is warned about by
+        // the shape check ("this is not a sphere")
+        (None, None, None) => return Ok(None),
+        (None, _, Some(m)) => {
+            m.check_size(w, h, "sphere mask")?;
+            Mask::from_fn(w, h, |r, c| *m.get(r, c) && inside_region(r, c))
+        }
+        (None, Some(_), None) => Mask::from_fn(w, h, inside_region),
+    };
+    let mut dropped = 0usize;
+    for (t, s) in mask.data.iter_mut().zip(&sphere.data) {
+        if *t && *s {
+            *t = false;
+            dropped += 1;
+        }
+    }
+    Ok((dropped > 0).then(|| {
+        format!(
+            "{dropped} pixels of the target's mask lie where the calibration sphere is searched \
+             (the sphere shares the target's images): they are left out of the target. Keep the \
+             sphere's search window (or mask) off the target"
+        )
+    }))
 }
 
 pub(super) fn check(inputs: &Inputs, opts: &Options) -> Result<()> {

@@ -114,7 +114,9 @@ pub struct Options {
     /// Remove interreflections (Nayar–Ikeuchi–Kanade iteration; Lambertian jobs only).
     pub interreflections: bool,
     /// Settings of the sphere detection ([`Normals::Lookup`]); when its `mask` is `None`
-    /// the job's `sphere_mask` (the sphere folder's `mask.png`) is used.
+    /// the job's `sphere_mask` (the sphere folder's `mask.png`) is used, unless a search
+    /// window (`region`) is given: the folder's mask is then the target's
+    /// ([`sphere::DetectOptions::search_mask`]).
     pub detect: sphere::DetectOptions,
     /// Settings of the lookup-table build ([`Normals::Lookup`]).
     pub build: lut::BuildOptions,

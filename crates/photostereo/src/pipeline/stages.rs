@@ -74,14 +74,15 @@ pub(super) fn normals(
 }
 
 /// The sphere detection of a lookup job: inside `opts.detect.mask` when given, else
-/// inside `sphere_mask` (the sphere folder's `mask.png`) when there is one.
+/// inside `sphere_mask` (the sphere folder's `mask.png`) when there is one and no search
+/// window is given ([`sphere::DetectOptions::search_mask`]).
 pub(super) fn detect(
     stack: &ImageStack,
     sphere_mask: Option<Mask>,
     opts: &Options,
 ) -> Result<sphere::Detection> {
     let d = sphere::DetectOptions {
-        mask: opts.detect.mask.clone().or(sphere_mask),
+        mask: opts.detect.search_mask(sphere_mask),
         ..opts.detect.clone()
     };
     sphere::detect(stack, &d)

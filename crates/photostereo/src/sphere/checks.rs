@@ -219,7 +219,8 @@ impl ShapeCheck {
                 "this is not a sphere: the outline of its {} leaves the circle found in {:.0}% of \
                  the directions from its centre (a sphere's follows it all round; fit rms {:.2} px). A table \
                  from it gives wrong normals everywhere: calibrate on images of a sphere of the target's \
-                 material, and check the overlay",
+                 material, and check the overlay (a sphere in a corner of the target's images: search \
+                 it in a window around it, not in the target's mask)",
                 self.outline_of,
                 100.0 * self.off_circle,
                 self.fit_rms_px

@@ -371,6 +371,14 @@ impl Crop {
                 .filter(|(_, &k)| k)
                 .map(|(v, _)| *v)
         };
+        if kept().next().is_none() {
+            // the search window and the search mask do not overlap (e.g. a target's mask
+            // taken for the sphere's): nothing to search
+            return Err(not_found(
+                "no pixel is left to search: the search window and the search mask do not overlap"
+                    .to_string(),
+            ));
+        }
         let lo = kept().fold(f32::INFINITY, f32::min);
         let hi = kept().fold(f32::NEG_INFINITY, f32::max);
         if hi.is_nan() || lo.is_nan() || hi - lo <= 1e-6 * hi.abs().max(1e-3) {

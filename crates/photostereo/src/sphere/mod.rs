@@ -189,6 +189,22 @@ impl Default for DetectOptions {
     }
 }
 
+impl DetectOptions {
+    /// The mask the sphere is searched in: [`DetectOptions::mask`] when given, else the
+    /// sphere folder's mask (`folder_mask`, its `mask.png`) unless a search window
+    /// ([`DetectOptions::region`]) is given. With a window the sphere shares its images
+    /// with a target (the classic setup: one folder, the sphere in a corner of the
+    /// images), and the folder's mask is the target's, not the sphere's: searching
+    /// inside it would miss the sphere.
+    pub fn search_mask(&self, folder_mask: Option<Mask>) -> Option<Mask> {
+        match (&self.mask, self.region) {
+            (Some(m), _) => Some(m.clone()),
+            (None, Some(_)) => None,
+            (None, None) => folder_mask,
+        }
+    }
+}
+
 /// Result of [`detect`], with the figures that say how much to trust it.
 #[derive(Clone, Debug)]
 pub struct Detection {
