@@ -13,8 +13,11 @@
 
 use crate::image::{ImageStack, Mask};
 
-/// At most this many mask pixels per image are kept for the quantisation step.
-pub const MAX_STEP_SAMPLES: usize = 200_000;
+/// At most this many mask pixels per image are kept for the quantisation step: enough
+/// to meet neighbouring levels of an 8-bit image many times over (on a 16-bit image the
+/// step found may be a few Δ, still a negligible floor), and at most 200 KB per image
+/// held by the banded run's sampler (compacted as it goes).
+pub const MAX_STEP_SAMPLES: usize = 50_000;
 
 /// The levels of the `mask` samples, fed by row bands, top to bottom.
 #[derive(Clone, Debug)]
