@@ -124,6 +124,20 @@ pub struct Args {
     /// Do not compute the curvature maps.
     #[arg(long, conflicts_with = "curvature_sigma")]
     pub no_curvature: bool,
+    /// Also write normal_map.png, a 16-bit normal map for 3-D and relighting tools:
+    /// opengl (green up: Blender, Maya, Unity, Godot, three.js; the same encoding as
+    /// normals.png) or directx (green down: Unreal Engine, 3ds Max). Outside the mask it
+    /// is the flat normal (0, 0, 1).
+    #[arg(long, value_name = "STYLE", value_parser = parse_normal_map)]
+    pub normal_map: Option<photostereo::io::NormalMapStyle>,
+    /// Also write normals.tif (float32 RGB, camera frame) and depth.tif (float32, NaN
+    /// outside the mask), for GIS and image tools that read float TIFF.
+    #[arg(long)]
+    pub tiff: bool,
+}
+
+fn parse_normal_map(text: &str) -> std::result::Result<photostereo::io::NormalMapStyle, String> {
+    photostereo::io::NormalMapStyle::from_name(text).map_err(|e| e.to_string())
 }
 
 fn parse_memory(text: &str) -> std::result::Result<u64, String> {
@@ -201,6 +215,10 @@ fn options(args: &Args) -> Result<pipeline::Options> {
     }
     opts.nik.radiosity.block = args.block.unwrap_or(0);
     opts.memory = args.memory;
+    opts.exports = pipeline::Exports {
+        normal_map: args.normal_map,
+        float_tiff: args.tiff,
+    };
     opts.curvature = (!args.no_curvature).then_some(photostereo::curvature::Options {
         sigma: args.curvature_sigma,
     });

@@ -54,6 +54,7 @@
 
 pub mod bands;
 pub mod dataset;
+pub mod export;
 pub mod hdr;
 pub mod lights_file;
 pub mod limits;
@@ -67,6 +68,7 @@ pub use dataset::{
     load_dataset, open_dataset_bands, read_intensities, read_lights, readable_by_bands,
     write_dataset, write_intensities, write_light_directions, Dataset, DatasetBands, LoadOptions,
 };
+pub use export::{write_depth_tiff, write_normal_map_png, write_normals_tiff, NormalMapStyle};
 pub use lights_file::{read_light_file, read_lights_for, write_lp, LightFile, LightFormat};
 pub use npy::{
     read_gray_npy, read_mask_npy, read_normals_npy, write_gray_npy, write_mask_npy, write_normals,

@@ -235,7 +235,7 @@ pub(super) fn run(
         title: io::dataset_name(&inputs.target),
         subtitle: subtitle(inputs, opts),
     };
-    let written = super::write_outputs(out, &titles, &job, &output, &stages)?;
+    let written = super::write_outputs_with(out, &titles, &job, &output, &stages, &opts.exports)?;
     Ok(Run {
         output,
         report: written.report,

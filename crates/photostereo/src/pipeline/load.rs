@@ -201,7 +201,14 @@ pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress)
         progress.note(&format!("warning: {w}"));
     }
     output.warnings.extend(loaded.warnings.iter().cloned());
-    let written = super::write_outputs(out, &loaded.titles, &loaded.job, &output, &loaded.stages)?;
+    let written = super::write_outputs_with(
+        out,
+        &loaded.titles,
+        &loaded.job,
+        &output,
+        &loaded.stages,
+        &opts.exports,
+    )?;
     Ok(Run {
         output,
         report: written.report,

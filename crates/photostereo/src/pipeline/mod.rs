@@ -52,7 +52,7 @@ pub use checks::NEIGHBOURS_WARN;
 pub use figures::Titles;
 pub use figures::{depth_range, masked_mean, run_json, warnings, LOW_CONFIDENCE};
 pub use load::{load, radiance_scale, run, scale_is_known, Inputs, Loaded, Run};
-pub use outputs::{write_outputs, Written};
+pub use outputs::{write_outputs, write_outputs_with, Written};
 #[cfg(feature = "report")]
 pub use report_page::build_report;
 
@@ -145,6 +145,18 @@ pub struct Options {
     /// Curvature maps from the normals ([`crate::curvature`]) with these settings;
     /// `None` = not computed. Default on, smoothing σ = 1 px.
     pub curvature: Option<curvature::Options>,
+    /// Extra files for other tools, written by [`write_outputs`] (default: none).
+    pub exports: Exports,
+}
+
+/// Extra files of a run for other tools ([`crate::io::export`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Exports {
+    /// Also write `normal_map.png`, a 16-bit normal map in this convention (green up or
+    /// down), flat (0, 0, 1) outside the mask.
+    pub normal_map: Option<crate::io::NormalMapStyle>,
+    /// Also write `normals.tif` (float32 RGB) and `depth.tif` (float32, NaN outside).
+    pub float_tiff: bool,
 }
 
 // Written out (not derived) so that every new option states its default here.
@@ -163,6 +175,7 @@ impl Default for Options {
             memory: None,
             max_band_rows: None,
             curvature: Some(curvature::Options::default()),
+            exports: Exports::default(),
         }
     }
 }

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use serde_json::{json, Value};
 
 use super::figures::{run_json, Titles};
-use super::{Job, Normals, Output};
+use super::{Exports, Job, Normals, Output};
 use crate::error::Result;
 use crate::picture as raster;
 use crate::{io, mesh, sphere};
@@ -24,7 +24,8 @@ pub struct Written {
 /// Write every product of `p` into the directory `out` (created): `normals.npy/png`,
 /// `albedo.npy/png`, `confidence.npy/png`, `normals_sigma.npy/png` and `own_share.npy`
 /// (spatial stage), `depth.npy/png`, `mesh.ply`, `curvature.npy/png` and
-/// `gaussian_curvature.npy` (with [`super::Options::curvature`]),
+/// `gaussian_curvature.npy` (with [`super::Options::curvature`]), `normal_map.png`,
+/// `normals.tif` and `depth.tif` (those `exports` asks for),
 /// `sphere_overlay.png`, `lights.txt` (Lambertian), `chrome_overlay.png` (lights from a
 /// chrome sphere), `convergence.csv` and plots (those the run has), `report.html` (with
 /// the `report` feature) and `run.json`. `albedo.png` and `depth.png` are the report's
@@ -43,8 +44,21 @@ pub fn write_outputs(
     p: &Output,
     extra_stages: &[(String, f64)],
 ) -> Result<Written> {
+    write_outputs_with(out, titles, job, p, extra_stages, &Exports::default())
+}
+
+/// [`write_outputs`] and the files for other tools that `exports` asks for.
+pub fn write_outputs_with(
+    out: &Path,
+    titles: &Titles,
+    job: &Job,
+    p: &Output,
+    extra_stages: &[(String, f64)],
+    exports: &Exports,
+) -> Result<Written> {
     let earlier = io::previous_run_files(out);
     let mut files = write_maps(out, job, p)?;
+    files.extend(write_exports(out, job, p, exports)?);
     if cfg!(feature = "report") {
         files.push("report.html");
     }
@@ -144,6 +158,26 @@ fn write_sides(out: &Path, job: &Job, p: &Output) -> Result<Vec<&'static str>> {
                 files.push(n);
             }
         }
+    }
+    Ok(files)
+}
+
+/// The files for other tools that `exports` asks for; returns their names.
+fn write_exports(
+    out: &Path,
+    job: &Job,
+    p: &Output,
+    exports: &Exports,
+) -> Result<Vec<&'static str>> {
+    let mut files = Vec::new();
+    if let Some(style) = exports.normal_map {
+        io::write_normal_map_png(&out.join("normal_map.png"), &p.normals, &job.mask, style)?;
+        files.push("normal_map.png");
+    }
+    if exports.float_tiff {
+        io::write_normals_tiff(&out.join("normals.tif"), &p.normals)?;
+        io::write_depth_tiff(&out.join("depth.tif"), &p.depth)?;
+        files.extend(["normals.tif", "depth.tif"]);
     }
     Ok(files)
 }
