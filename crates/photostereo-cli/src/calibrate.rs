@@ -137,6 +137,16 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         denoising(opts.denoise, table.smooth),
         table.material
     ));
+    let share = photostereo::lut::specular_share(&table);
+    let kind = if share > photostereo::lut::SPECULAR_SHARE {
+        "specular: `normals --normalize` fits diffuse + specular for albedo changes"
+    } else {
+        "matte: `normals --normalize` matches brightness-normalised tuples"
+    };
+    say(format!(
+        "{:.1}% of the sphere's light is not Lambertian ({kind})",
+        100.0 * share
+    ));
     // everything is computed before the first file is written
     let bytes = table.to_bytes();
     let png = sphere::encode_png(&sphere::overlay(&det.max_image, &c))?;

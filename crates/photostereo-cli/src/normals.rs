@@ -41,10 +41,17 @@ pub struct Args {
         required_unless_present = "lambertian"
     )]
     luts: Vec<PathBuf>,
-    /// Match brightness-normalised tuples (target albedo differs from the sphere's);
-    /// writes the albedo relative to the sphere.
+    /// For albedo changes (the target's albedo varies or differs from the sphere's):
+    /// match brightness-normalised tuples, or, when the table is specular (a shiny
+    /// sphere: its highlight is more than 2% of its light) and the lookup refined, fit
+    /// diffuse + specular as --split-specular does (only the diffuse part scales with
+    /// the albedo); a line says which. Writes the albedo relative to the sphere's.
     #[arg(long)]
     normalize: bool,
+    /// With --normalize on a specular table: brightness-normalised matching all the
+    /// same (no diffuse/specular split; faster, less accurate where the albedo varies).
+    #[arg(long, requires = "normalize", conflicts_with = "split_specular")]
+    no_split: bool,
     /// Shiny target whose albedo varies: split the table into its Lambertian part and
     /// the rest (highlight) and fit a·diffuse + b·specular at each pixel, so that only
     /// the diffuse part scales with the albedo; writes the albedo (a). One table only;
@@ -155,12 +162,21 @@ fn lookup_normals(
         "idw" => Method::InverseDistance { neighbours: 6 },
         _ => Method::Refined,
     };
-    let opts = lut::Options {
+    let asked = lut::Options {
         method,
         normalize: args.normalize || args.split_specular,
         split_specular: args.split_specular,
+        split_if_specular: args.normalize && !args.no_split,
         ..lut::Options::default()
     };
+    let opts = lut::options_for(&tables, &asked);
+    if opts.split_specular && !args.split_specular && !global.quiet {
+        println!(
+            "--normalize: the table is specular ({:.1}% of its light is not Lambertian): fitting \
+             diffuse + specular (as --split-specular; --no-split for normalised matching)",
+            100.0 * lut::specular_share(&tables[0])
+        );
+    }
     let bar = Bar::new(global.quiet);
     let out = lut::solve(stack, mask, &tables, &opts, &bar).with_context(|| {
         let files: Vec<String> = args.luts.iter().map(|p| p.display().to_string()).collect();

@@ -52,10 +52,16 @@ pub struct Args {
     /// A lookup table from `photostereo calibrate` instead of a sphere folder.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["lambertian", "chrome"])]
     pub lut: Option<PathBuf>,
-    /// Match brightness-normalised tuples (the target's albedo differs from the
-    /// sphere's, as `normals --normalize`); albedo.npy is then relative to the sphere's.
+    /// For albedo changes (the target's albedo varies or differs from the sphere's), as
+    /// `normals --normalize`: brightness-normalised matching, or on a specular table
+    /// (a shiny sphere) the diffuse + specular fit; albedo.npy is then relative to the
+    /// sphere's.
     #[arg(long, conflicts_with = "lambertian")]
     pub normalize: bool,
+    /// With --normalize on a specular table: brightness-normalised matching all the
+    /// same (no diffuse/specular split), as `normals --no-split`.
+    #[arg(long, requires = "normalize")]
+    pub no_split: bool,
     /// Lambertian photometric stereo with known lights (from the dataset's
     /// light_directions.txt, --lights or --chrome).
     #[arg(long)]
@@ -223,6 +229,7 @@ fn options(args: &Args) -> Result<pipeline::Options> {
         sigma: args.curvature_sigma,
     });
     opts.lookup.normalize = args.normalize;
+    opts.lookup.split_if_specular = args.normalize && !args.no_split;
     opts.detect.circle = args.circle;
     opts.detect.region = args.sphere_region;
     if let Some(path) = &args.sphere_mask {

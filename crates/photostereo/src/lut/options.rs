@@ -49,6 +49,13 @@ pub struct Options {
     /// [`super::Output::albedo`], (a, b) in [`super::Output::weights`]. About 3–4× the CPU time of
     /// `normalize` (the mixture's search, `search/mixture.rs`). Default false.
     pub split_specular: bool,
+    /// With `normalize` and one specular table (its [`super::specular_share`] above
+    /// [`super::SPECULAR_SHARE`]) and [`Method::Refined`]: fit the diffuse/specular split
+    /// (`split_specular`) instead of brightness-normalised tuples, the model of a shiny
+    /// target whose albedo varies (only its diffuse part scales with the albedo). A
+    /// matte table keeps normalised matching. Resolved by [`super::options_for`].
+    /// Default false.
+    pub split_if_specular: bool,
 }
 
 impl Default for Options {
@@ -64,6 +71,7 @@ impl Default for Options {
             residual_scale: 0.05,
             weight_scale: 0.025,
             split_specular: false,
+            split_if_specular: false,
         }
     }
 }

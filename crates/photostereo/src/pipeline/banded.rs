@@ -327,6 +327,7 @@ fn lookup_stages(
     let mask = cap.mask.clone();
     mask.check_not_empty("target mask")?;
     let (w, h) = (mask.width, mask.height);
+    stages::note_split(table, opts, st.progress());
     let lookup = lut::Lookup::new(std::slice::from_ref(table), &opts.lookup)?;
     let mut sampler = NoiseSampler::new(&mask, cap.ds.header.k());
     let (buf, step) = preview;

@@ -88,7 +88,21 @@ pub(super) fn detect(
     sphere::detect(stack, &d)
 }
 
+/// Says on `p` when the lookup fits diffuse + specular for albedo changes on a specular
+/// table ([`lut::Options::split_if_specular`]) rather than normalised matching.
+pub(super) fn note_split(table: &lut::Table, opts: &Options, p: &dyn Progress) {
+    let used = lut::options_for(std::slice::from_ref(table), &opts.lookup);
+    if used.split_specular && !opts.lookup.split_specular {
+        p.note(&format!(
+            "albedo changes on a specular table ({:.1}% of the sphere's light is not \
+             Lambertian): the diffuse + specular fit is used, not brightness-normalised matching",
+            100.0 * lut::specular_share(table)
+        ));
+    }
+}
+
 fn lookup(job: &Job, table: &lut::Table, opts: &Options, p: &dyn Progress) -> Result<Estimate> {
+    note_split(table, opts, p);
     let out = lut::solve(
         &job.target,
         &job.mask,

@@ -115,6 +115,26 @@ pub(crate) fn split(table: &Table) -> [Table; 2] {
     [diffuse, specular]
 }
 
+/// Share of the table's light that is not Lambertian: Σ|S| / Σ|I| over its entries and
+/// lights, with S = I − D the remainder of [`split`] (the highlight of a plastic).
+pub(crate) fn specular_share(table: &Table) -> f64 {
+    let k = table.k;
+    let g: Vec<[f64; 3]> = (0..k).map(|i| fit_light(table, i)).collect();
+    let (mut rest, mut all) = (0.0f64, 0.0f64);
+    for (e, n) in table.entries.normals.iter().enumerate() {
+        let tuple = &table.entries.tuples[e * k..(e + 1) * k];
+        for (gi, &v) in g.iter().zip(tuple) {
+            rest += f64::from((v - lambert(n, gi)).abs());
+            all += f64::from(v.abs());
+        }
+    }
+    if all > 0.0 {
+        rest / all
+    } else {
+        0.0
+    }
+}
+
 /// `n` scaled to unit length (the sphere's normal clamped to the circle outside it).
 fn unit(n: [f32; 3]) -> [f32; 3] {
     let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
