@@ -4,14 +4,19 @@
 use super::bands::{probe_images, BandReader, StackHeader};
 use super::hdr;
 use super::lights_file::{self, LightFile};
-use super::raster::{decode_gray_response, read_mask_any, save_png, write_mask_png, Decoded, LUMA};
+use super::raster::{
+    check_consistent, decode_gray_response, format_of, luminance, read_mask_any, save_png,
+    write_mask_png, Decoded,
+};
 use super::response::Response;
-use super::{read_text, write_text};
+use super::text_files::{
+    natural_cmp, read_filenames, read_intensities, read_lights, write_intensities,
+    write_light_directions,
+};
+use super::write_text;
 use crate::error::{Error, Result};
-use crate::image::{normalize, ImageStack, Lights, Mask};
+use crate::image::{ImageStack, Lights, Mask};
 use rayon::prelude::*;
-use std::cmp::Ordering;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// Options of [`load_dataset`].
@@ -259,15 +264,6 @@ fn interleave(stack: &mut ImageStack, i: usize, image: &crate::image::GrayImage)
 /// The lights and the raw intensity triples of a dataset, each if present.
 type LightFiles = (Option<Lights>, Option<Vec<[f32; 3]>>);
 
-/// The format of an image file, by its first bytes (`None` when unreadable).
-pub(crate) fn format_of(path: &Path) -> Option<image::ImageFormat> {
-    image::ImageReader::open(path)
-        .ok()?
-        .with_guessed_format()
-        .ok()?
-        .format()
-}
-
 /// The file names (last components) of `files`.
 fn file_names(files: &[PathBuf]) -> Vec<String> {
     files
@@ -339,10 +335,6 @@ fn read_light_files(
     Ok((lights, raw))
 }
 
-pub(crate) fn luminance(t: [f32; 3]) -> f32 {
-    LUMA[0] * t[0] + LUMA[1] * t[1] + LUMA[2] * t[2]
-}
-
 /// Run `read` on `path` when the file exists.
 fn optional<T>(path: PathBuf, read: impl FnOnce(&Path) -> Result<T>) -> Result<Option<T>> {
     if path.exists() {
@@ -360,37 +352,6 @@ fn check_count(path: &Path, expected: usize, found: usize, fix: &str) -> Result<
             found,
             fix: format!("{fix} ({expected} images)"),
         });
-    }
-    Ok(())
-}
-
-/// An image must share the size and bit depth of the first.
-pub(crate) fn check_consistent(
-    first: (&PathBuf, &Decoded),
-    this: (&PathBuf, &Decoded),
-) -> Result<()> {
-    let ((f0, first), (f, d)) = (first, this);
-    if !d.image.same_size(&first.image) {
-        return Err(Error::SizeMismatch {
-            what: format!("{} (first image {})", f.display(), f0.display()),
-            expected_w: first.image.width,
-            expected_h: first.image.height,
-            found_w: d.image.width,
-            found_h: d.image.height,
-            fix: "all light images must have the same size".into(),
-        });
-    }
-    if d.bit_depth != first.bit_depth {
-        return Err(Error::invalid(
-            format!(
-                "{}: {}-bit image, but {} is {}-bit",
-                f.display(),
-                d.bit_depth,
-                f0.display(),
-                first.bit_depth
-            ),
-            "all light images must have the same bit depth",
-        ));
     }
     Ok(())
 }
@@ -495,143 +456,6 @@ fn lp_images(dir: &Path, lp: &Path, names: &[String]) -> Result<Vec<PathBuf>> {
             }
         })
         .collect()
-}
-
-/// File names from `filenames.txt`: one per line; blank lines and `#` comments skipped.
-pub(crate) fn read_filenames(path: &Path) -> Result<Vec<String>> {
-    let text = read_text(path)?;
-    Ok(text
-        .lines()
-        .map(str::trim)
-        .filter(|l| !l.is_empty() && !l.starts_with('#'))
-        .map(str::to_string)
-        .collect())
-}
-
-/// Compare names so that runs of digits compare by value (`2.png` < `10.png`).
-pub fn natural_cmp(a: &str, b: &str) -> Ordering {
-    let (mut x, mut y) = (a.as_bytes(), b.as_bytes());
-    while !x.is_empty() && !y.is_empty() {
-        if x[0].is_ascii_digit() && y[0].is_ascii_digit() {
-            let dx = x.iter().take_while(|c| c.is_ascii_digit()).count();
-            let dy = y.iter().take_while(|c| c.is_ascii_digit()).count();
-            let (nx, ny) = (trim_zeros(&x[..dx]), trim_zeros(&y[..dy]));
-            let ord = nx.len().cmp(&ny.len()).then(nx.cmp(ny));
-            if ord != Ordering::Equal {
-                return ord;
-            }
-            (x, y) = (&x[dx..], &y[dy..]);
-        } else {
-            if x[0] != y[0] {
-                return x[0].cmp(&y[0]);
-            }
-            (x, y) = (&x[1..], &y[1..]);
-        }
-    }
-    x.len().cmp(&y.len()).then_with(|| a.cmp(b))
-}
-
-fn trim_zeros(d: &[u8]) -> &[u8] {
-    let z = d.iter().take_while(|&&c| c == b'0').count();
-    &d[z..]
-}
-
-/// Parse the numeric lines of a text table (blank lines and `#` comments skipped;
-/// numbers separated by spaces, tabs or commas). Returns (line number, values).
-pub(crate) fn parse_rows(path: &Path) -> Result<Vec<(usize, Vec<f32>)>> {
-    let text = read_text(path)?;
-    let mut rows = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let mut values = Vec::new();
-        for token in line.split(|c: char| c.is_whitespace() || c == ',') {
-            if token.is_empty() {
-                continue;
-            }
-            let v: f32 = token.parse().map_err(|_| parse_error(path, i, token))?;
-            if !v.is_finite() {
-                return Err(parse_error(path, i, token));
-            }
-            values.push(v);
-        }
-        rows.push((i + 1, values));
-    }
-    Ok(rows)
-}
-
-fn parse_error(path: &Path, line: usize, token: &str) -> Error {
-    Error::Parse {
-        path: path.to_path_buf(),
-        line: line + 1,
-        message: format!("`{token}` is not a finite number"),
-    }
-}
-
-/// Read `light_directions.txt`: one `x y z` line per light (surface → light, camera
-/// frame). Directions are normalised; intensities are set to 1.
-pub fn read_lights(path: &Path) -> Result<Lights> {
-    let mut dirs = Vec::new();
-    for (line, v) in parse_rows(path)? {
-        let bad = |message: String| Error::Parse {
-            path: path.to_path_buf(),
-            line,
-            message,
-        };
-        if v.len() != 3 {
-            return Err(bad(format!("{} numbers, expected 3 (x y z)", v.len())));
-        }
-        let d = [v[0], v[1], v[2]];
-        let norm = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        if norm.is_nan() || norm <= 1e-12 {
-            return Err(bad("zero-length light direction".into()));
-        }
-        dirs.push(normalize(d));
-    }
-    Ok(Lights::from_directions(dirs))
-}
-
-/// Read `light_intensities.txt`: one value or an `R G B` triple per line (a single
-/// value v becomes `[v, v, v]`); every value must be positive.
-pub fn read_intensities(path: &Path) -> Result<Vec<[f32; 3]>> {
-    let mut out = Vec::new();
-    for (line, v) in parse_rows(path)? {
-        let bad = |message: String| Error::Parse {
-            path: path.to_path_buf(),
-            line,
-            message,
-        };
-        let t = match v.as_slice() {
-            [a] => [*a; 3],
-            [r, g, b] => [*r, *g, *b],
-            _ => return Err(bad(format!("{} numbers, expected 1 or 3", v.len()))),
-        };
-        if t.iter().any(|&x| x <= 0.0) {
-            return Err(bad("intensities must be positive".into()));
-        }
-        out.push(t);
-    }
-    Ok(out)
-}
-
-/// Write `light_directions.txt` (one `x y z` line per light, 9 decimals).
-pub fn write_light_directions(path: &Path, lights: &Lights) -> Result<()> {
-    let mut s = String::new();
-    for d in &lights.directions {
-        let _ = writeln!(s, "{:.9} {:.9} {:.9}", d[0], d[1], d[2]);
-    }
-    write_text(path, &s)
-}
-
-/// Write `light_intensities.txt` (one `v v v` line per light, as DiLiGenT).
-pub fn write_intensities(path: &Path, lights: &Lights) -> Result<()> {
-    let mut s = String::new();
-    for v in &lights.intensities {
-        let _ = writeln!(s, "{v} {v} {v}");
-    }
-    write_text(path, &s)
 }
 
 /// Write a dataset directory that [`load_dataset`] reads back: `001.png` ... (gray,

@@ -44,7 +44,7 @@ pub(crate) fn brackets(
             ),
         });
     }
-    let names = super::dataset::read_filenames(&list)?;
+    let names = super::text_files::read_filenames(&list)?;
     debug_assert_eq!(names.len(), lines.len());
     let times = read_exposure_times(&times_path, names.len())?;
     let mut out = Vec::with_capacity(names.len());
@@ -86,7 +86,7 @@ pub(crate) fn decode_bracket(
         .map(|f| decode_gray_response(f, scale, response))
         .collect::<Result<_>>()?;
     for (f, shot) in files.iter().zip(&shots).skip(1) {
-        super::dataset::check_consistent((&files[0], &shots[0]), (f, shot))?;
+        super::raster::check_consistent((&files[0], &shots[0]), (f, shot))?;
     }
     let black = match shots[0].bit_depth {
         8 | 16 => {
@@ -95,9 +95,9 @@ pub(crate) fn decode_bracket(
             } else {
                 65535.0
             };
-            let curve = response.resolve(super::dataset::format_of(&files[0]));
+            let curve = response.resolve(super::raster::format_of(&files[0]));
             let s = scale.unwrap_or([1.0; 3]);
-            curve.linearize(2.0 / full) / super::dataset::luminance(s)
+            curve.linearize(2.0 / full) / super::raster::luminance(s)
         }
         _ => 0.0,
     };
@@ -149,7 +149,7 @@ pub(crate) fn merge(shots: Vec<Decoded>, times: &[f32], black: f32) -> Result<De
 /// Read `exposure_times.txt`: one line of E relative exposures (for every light), or
 /// `lights` lines of E; every value finite and positive. Returns one row per light.
 pub(crate) fn read_exposure_times(path: &Path, lights: usize) -> Result<Vec<Vec<f32>>> {
-    let rows = super::dataset::parse_rows(path)?;
+    let rows = super::text_files::parse_rows(path)?;
     for (line, row) in &rows {
         if row.iter().any(|&t| t <= 0.0) {
             return Err(Error::Parse {

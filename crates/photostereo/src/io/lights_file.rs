@@ -14,7 +14,7 @@
 //! [`read_lights_for`] reads any of them and returns the lights in the order of a
 //! dataset's images.
 
-use super::dataset::read_lights;
+use super::text_files::read_lights;
 use super::{read_text, write_text};
 use crate::error::{Error, Result};
 use crate::image::{normalize, Lights};
@@ -98,7 +98,7 @@ pub fn read_lights_for(path: &Path, names: &[String]) -> Result<Lights> {
         });
     }
     if let Some(t) = &file.intensities {
-        lights.intensities = t.iter().map(|v| super::dataset::luminance(*v)).collect();
+        lights.intensities = t.iter().map(|v| super::raster::luminance(*v)).collect();
     }
     Ok(lights)
 }

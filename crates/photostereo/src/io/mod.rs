@@ -62,11 +62,12 @@ pub mod npy;
 pub mod raster;
 pub mod response;
 pub mod run;
+pub mod text_files;
 
 pub use bands::{probe_images, BandReader, StackHeader};
 pub use dataset::{
-    load_dataset, open_dataset_bands, read_intensities, read_lights, readable_by_bands,
-    write_dataset, write_intensities, write_light_directions, Dataset, DatasetBands, LoadOptions,
+    load_dataset, open_dataset_bands, readable_by_bands, write_dataset, Dataset, DatasetBands,
+    LoadOptions,
 };
 pub use export::{write_depth_tiff, write_normal_map_png, write_normals_tiff, NormalMapStyle};
 pub use lights_file::{read_light_file, read_lights_for, write_lp, LightFile, LightFormat};
@@ -82,6 +83,7 @@ pub use run::{
     dataset_name, previous_run_files, read_ground_truth, read_meta_scale, read_table, remove_files,
     write_table, RUN_FILES,
 };
+pub use text_files::{read_intensities, read_lights, write_intensities, write_light_directions};
 
 use crate::error::{Error, Result};
 use std::fs::{self, File, OpenOptions};

@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, Mask, NormalMap};
 use crate::picture::{png_bytes, Deflate};
 use image::{DynamicImage, ImageFormat, ImageReader, Luma, Rgb};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Rec. 709 luminance weights on linear R, G, B.
 pub const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
@@ -486,4 +486,49 @@ pub fn write_colormap_png(
 /// keep the `.npy` for numbers.
 pub fn write_depth_png(path: &Path, depth: &GrayImage, mask: Option<&Mask>) -> Result<()> {
     write_colormap_png(path, depth, mask, None)
+}
+
+/// The format of an image file, by its first bytes (`None` when unreadable).
+pub(crate) fn format_of(path: &Path) -> Option<image::ImageFormat> {
+    image::ImageReader::open(path)
+        .ok()?
+        .with_guessed_format()
+        .ok()?
+        .format()
+}
+
+/// Luminance of an RGB triple (Rec. 709 weights [`LUMA`]).
+pub(crate) fn luminance(t: [f32; 3]) -> f32 {
+    LUMA[0] * t[0] + LUMA[1] * t[1] + LUMA[2] * t[2]
+}
+
+/// An image must share the size and bit depth of the first.
+pub(crate) fn check_consistent(
+    first: (&PathBuf, &Decoded),
+    this: (&PathBuf, &Decoded),
+) -> Result<()> {
+    let ((f0, first), (f, d)) = (first, this);
+    if !d.image.same_size(&first.image) {
+        return Err(Error::SizeMismatch {
+            what: format!("{} (first image {})", f.display(), f0.display()),
+            expected_w: first.image.width,
+            expected_h: first.image.height,
+            found_w: d.image.width,
+            found_h: d.image.height,
+            fix: "all light images must have the same size".into(),
+        });
+    }
+    if d.bit_depth != first.bit_depth {
+        return Err(Error::invalid(
+            format!(
+                "{}: {}-bit image, but {} is {}-bit",
+                f.display(),
+                d.bit_depth,
+                f0.display(),
+                first.bit_depth
+            ),
+            "all light images must have the same bit depth",
+        ));
+    }
+    Ok(())
 }

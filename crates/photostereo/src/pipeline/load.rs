@@ -171,51 +171,6 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
     })
 }
 
-/// The whole job: [`load`], [`super::solve`], [`super::write_outputs`] into `out`.
-///
-/// Without interreflection removal (a global iteration on the whole stack) the target's
-/// images are read by row bands within the memory budget [`Options::memory`]
-/// ([`crate::plan`]); the results are those of [`load`] and [`super::solve`]. Bracketed
-/// exposures and non-linear images are loaded whole (no memory plan).
-pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress) -> Result<Run> {
-    // bracketed exposures and non-linear (JPEG) images are merged / linearised by the
-    // whole-stack loader only
-    if !opts.interreflections && io::readable_by_bands(&inputs.target, inputs.response) {
-        return super::banded::run(inputs, out, opts, progress);
-    }
-    let loaded = load(inputs, opts, progress)?;
-    let mut opts = opts.clone();
-    opts.nik.scale_known |= loaded.scale_known;
-    let mut output = super::solve(&loaded.job, &opts, progress)?;
-    if let Some((scale, from)) = loaded.image_scale {
-        output
-            .figures
-            .push(("image scale (images ×)".into(), format!("{scale} ({from})")));
-    }
-    // run.json's figures record how the images were linearised
-    output
-        .figures
-        .push(("image response".into(), loaded.response.to_string()));
-    output.chrome = loaded.chrome.clone();
-    for w in &loaded.warnings {
-        progress.note(&format!("warning: {w}"));
-    }
-    output.warnings.extend(loaded.warnings.iter().cloned());
-    let written = super::write_outputs_with(
-        out,
-        &loaded.titles,
-        &loaded.job,
-        &output,
-        &loaded.stages,
-        &opts.exports,
-    )?;
-    Ok(Run {
-        output,
-        report: written.report,
-        json: written.json,
-    })
-}
-
 /// Margin (pixels) around a given circle inside which target pixels count as the
 /// sphere's (its rim is blurred over a pixel or two).
 const SPHERE_MARGIN_PX: f64 = 2.0;

@@ -35,6 +35,7 @@
 mod banded;
 mod checks;
 mod figures;
+mod from_paths;
 mod load;
 mod outputs;
 #[cfg(feature = "report")]
@@ -51,7 +52,8 @@ use crate::{curvature, eval, integrate, interreflect, lambertian, lut, mesh, spa
 pub use checks::NEIGHBOURS_WARN;
 pub use figures::Titles;
 pub use figures::{depth_range, masked_mean, run_json, warnings, LOW_CONFIDENCE};
-pub use load::{load, radiance_scale, run, scale_is_known, Inputs, Loaded, Run};
+pub use from_paths::run;
+pub use load::{load, radiance_scale, scale_is_known, Inputs, Loaded, Run};
 pub use outputs::{write_outputs, write_outputs_with, Written};
 #[cfg(feature = "report")]
 pub use report_page::build_report;
