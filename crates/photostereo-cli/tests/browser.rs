@@ -293,6 +293,69 @@ fn synthetic_report_shows_a_shaded_surface_without_errors() {
     );
 }
 
+/// The relighting view shades the normals under the start light as the Lambertian model
+/// says (mean grey level against the one computed here), without script errors.
+#[test]
+fn relighting_view_draws_the_lambertian_shading() {
+    let Some(browser) = browser("relighting_view_draws_the_lambertian_shading") else {
+        return;
+    };
+    let (w, h, radius) = (128, 128, 50.0f64);
+    let normal = |r: usize, c: usize| {
+        let (x, y) = pixel_to_xy(r, c, w, h);
+        let z2 = radius * radius - x * x - y * y;
+        (z2 > 0.0).then(|| {
+            [
+                (x / radius) as f32,
+                (y / radius) as f32,
+                (z2.sqrt() / radius) as f32,
+            ]
+        })
+    };
+    let normals = Image::from_fn(w, h, |r, c| normal(r, c).unwrap_or([0.0; 3]));
+    let mask: Mask = Image::from_fn(w, h, |r, c| normal(r, c).is_some());
+    let mut report = Report::new("relighting");
+    report.relight(&normals, None, Some(&mask)).unwrap();
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+    let page = dir.join("relight-report.html");
+    std::fs::write(&page, report.to_html().unwrap()).unwrap();
+    let seen = open(&browser, &page, "relight");
+    assert_eq!(attr(&seen.dom, "data-relight").as_deref(), Some("drawn"));
+    assert!(
+        seen.errors == 0 && seen.log_errors.is_empty(),
+        "script errors"
+    );
+    let [lx, ly] = photostereo::report::relight::START_LIGHT.map(f64::from);
+    let lz = (1.0 - lx * lx - ly * ly).sqrt();
+    let light = attr(&seen.dom, "data-relight-light").unwrap_or_default();
+    assert_eq!(light, format!("{lx:.3},{ly:.3},{lz:.3}"));
+    // no albedo: grey 204 (0.8 of white) times the cosine
+    let (mut sum, mut count) = (0.0, 0usize);
+    for n in normals.data.iter().filter(|n| n[2] > 0.0) {
+        let shade = f64::from(n[0]) * lx + f64::from(n[1]) * ly + f64::from(n[2]) * lz;
+        sum += (204.0 * shade.max(0.0)).round();
+        count += 1;
+    }
+    let expected = sum / count as f64;
+    let drawn: f64 = attr(&seen.dom, "data-relight-mean")
+        .unwrap()
+        .parse()
+        .unwrap();
+    eprintln!("relighting: mean grey {drawn} drawn, {expected:.2} expected");
+    assert!(
+        (drawn - expected).abs() < 1.0,
+        "drawn {drawn}, expected {expected:.2}"
+    );
+    // the screenshot shows the shaded sphere: many grey levels, brightest up and right
+    let levels: std::collections::HashSet<u8> = seen
+        .shot
+        .pixels()
+        .filter(|p| p.0[0] == p.0[1] && p.0[1] == p.0[2])
+        .map(|p| p.0[0])
+        .collect();
+    assert!(levels.len() > 100, "{} grey levels on screen", levels.len());
+}
+
 /// The README's first command: `photostereo demo`, then both of its reports in the browser.
 #[test]
 fn demo_reports_show_shaded_surfaces_without_errors() {
@@ -385,5 +448,25 @@ fn real_buddha_report_shows_a_shaded_surface_without_errors() {
         "the side view was not selected"
     );
     to_docs("browser-buddha/screenshot.png", "view-buddha-front.png");
+    // the relighting view of the run's normals and albedo, on a page of its own
+    let normals = photostereo::io::read_normals_npy(&out.join("normals.npy")).unwrap();
+    let albedo = photostereo::io::read_gray_npy(&out.join("albedo.npy")).unwrap();
+    let mask: Mask = normals.map(|n| *n != [0.0; 3]);
+    let mut report = Report::new("buddha: relighting");
+    report
+        .relight(&normals, Some(&albedo), Some(&mask))
+        .unwrap();
+    let page = out.join("relight.html");
+    std::fs::write(&page, report.to_html().unwrap()).unwrap();
+    let relit = open(&browser, &page, "buddha-relight");
+    assert_eq!(attr(&relit.dom, "data-relight").as_deref(), Some("drawn"));
+    assert!(
+        relit.errors == 0 && relit.log_errors.is_empty(),
+        "relighting: script errors"
+    );
+    to_docs(
+        "browser-buddha-relight/screenshot.png",
+        "view-buddha-relight.png",
+    );
     to_docs("browser-buddha-side/screenshot.png", "view-buddha-side.png");
 }

@@ -23,6 +23,7 @@ pub fn build_report(
     }
     r.inputs(&job.target);
     r.surface(&p.depth, p.albedo.as_ref())?;
+    r.relight(&p.normals, p.albedo.as_ref(), mask)?;
     r.normals(&p.normals, mask)?;
     if let Some(a) = &p.albedo {
         r.albedo(a, mask)?;

@@ -101,6 +101,7 @@ pub(crate) fn page(r: &Report) -> Result<String> {
     s.push_str("<pre id=\"ps-errors\"></pre>\n");
     warnings_section(&mut s, r);
     viewer_section(&mut s, r);
+    relight_section(&mut s, r);
     inputs_section(&mut s, r)?;
     for (section, title) in [
         (Section::Maps, "Maps"),
@@ -123,6 +124,18 @@ pub(crate) fn page(r: &Report) -> Result<String> {
     } else {
         s.push_str("<script>document.documentElement.dataset.viewer='none';</script>\n");
     }
+    match &r.relight {
+        Some(maps) => {
+            // base64, digits and punctuation only: nothing that could close the tag
+            let _ = writeln!(
+                s,
+                "<script type=\"application/json\" id=\"ps-relight-data\">{}</script>",
+                maps.payload_json()
+            );
+            let _ = writeln!(s, "<script>{}</script>", super::relight::RELIGHT_JS);
+        }
+        None => s.push_str("<script>document.documentElement.dataset.relight='none';</script>\n"),
+    }
     s.push_str("</body>\n</html>\n");
     Ok(s)
 }
@@ -137,6 +150,21 @@ fn warnings_section(s: &mut String, r: &Report) {
         let _ = write!(s, "<p><b>Warning:</b> {}</p>", esc(w));
     }
     s.push_str("</div>\n");
+}
+
+fn relight_section(s: &mut String, r: &Report) {
+    let Some(maps) = &r.relight else { return };
+    let _ = writeln!(
+        s,
+        "<h2 id=\"relight\">Relighting</h2>\n<canvas id=\"ps-relight\" \
+         style=\"height:min(78vh,{}px);max-width:100%;cursor:crosshair;background:#1b1e24\"></canvas>\n\
+         <div class=\"tools\">press and drag over the picture to move the light (centre: \
+         from the camera; edge: grazing) · Lambertian shading of the normals and albedo, \
+         {}×{} px</div>",
+        (2 * maps.height).max(256),
+        maps.width,
+        maps.height
+    );
 }
 
 fn viewer_section(s: &mut String, r: &Report) {

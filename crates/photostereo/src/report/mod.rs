@@ -26,6 +26,7 @@
 
 mod html;
 mod polar;
+pub mod relight;
 pub use crate::picture as raster;
 pub mod viewer;
 
@@ -87,6 +88,7 @@ pub struct Report {
     table: Vec<(String, String)>,
     warnings: Vec<String>,
     mesh: Option<ViewerMesh>,
+    relight: Option<relight::RelightMaps>,
 }
 
 impl Report {
@@ -282,6 +284,17 @@ impl Report {
     /// The 3-D view of a mesh made by the caller (at most [`MAX_TRIANGLES`] triangles).
     pub fn mesh(&mut self, parts: MeshParts<'_>) -> Result<&mut Self> {
         self.mesh = Some(ViewerMesh::from_parts(parts)?);
+        Ok(self)
+    }
+
+    /// The relighting view of `normals` and `albedo` inside `mask` (see [`relight`]).
+    pub fn relight(
+        &mut self,
+        normals: &NormalMap,
+        albedo: Option<&GrayImage>,
+        mask: Option<&Mask>,
+    ) -> Result<&mut Self> {
+        self.relight = Some(relight::RelightMaps::new(normals, albedo, mask)?);
         Ok(self)
     }
 
