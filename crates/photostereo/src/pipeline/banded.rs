@@ -135,15 +135,7 @@ pub(super) fn run(
 ) -> Result<Run> {
     check(inputs, opts)?;
     let t0 = Instant::now();
-    let load_opts = io::LoadOptions {
-        mask_path: inputs.mask.clone(),
-        response: inputs.response,
-        ..Default::default()
-    };
-    let others = io::LoadOptions {
-        response: inputs.response,
-        ..Default::default()
-    };
+    let (load_opts, others) = inputs.load_options();
     let ds = io::open_dataset_bands(&inputs.target, &load_opts)?;
     let k = ds.header.k();
     let (w, h) = (ds.header.width, ds.header.height);

@@ -78,20 +78,28 @@ pub struct Run {
     pub json: Value,
 }
 
+impl Inputs {
+    /// How the target's folder is read (with [`Inputs::mask`] and the response), and how
+    /// the other folders (sphere, chrome) are (with the response only).
+    pub(super) fn load_options(&self) -> (io::LoadOptions, io::LoadOptions) {
+        let others = io::LoadOptions {
+            response: self.response,
+            ..Default::default()
+        };
+        let target = io::LoadOptions {
+            mask_path: self.mask.clone(),
+            ..others.clone()
+        };
+        (target, others)
+    }
+}
+
 /// Load the job of `inputs`: the target (brought to radiance units for a Lambertian
 /// job), the sphere or the lights, and `normal_gt.npy` / `depth_gt.npy` when present.
 pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<Loaded> {
     check(inputs, opts)?;
     let t0 = Instant::now();
-    let load_opts = io::LoadOptions {
-        mask_path: inputs.mask.clone(),
-        response: inputs.response,
-        ..Default::default()
-    };
-    let others = io::LoadOptions {
-        response: inputs.response,
-        ..Default::default()
-    };
+    let (load_opts, others) = inputs.load_options();
     let mut target = io::load_dataset(&inputs.target, &load_opts)?;
     let scale_known = inputs.lambertian
         && scale_is_known(&inputs.target, inputs.image_scale, opts.interreflections)?;
