@@ -40,6 +40,7 @@
 // where it is used, with the reason.
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
 
+mod cpu;
 pub mod curvature;
 pub mod error;
 pub mod eval;

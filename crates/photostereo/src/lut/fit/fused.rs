@@ -63,9 +63,9 @@ pub(crate) struct Single<'a> {
     /// Fit a free scale c (normalised matching); else c = 1.
     scale: bool,
     /// The processor has AVX (x86-64): [`Single::refine`] runs its AVX build.
-    avx: bool,
+    avx: Option<Avx>,
     /// The processor also has FMA: [`Single::refine`] runs its AVX + FMA build.
-    fma: bool,
+    fma: Option<AvxFma>,
 }
 
 /// Result of one fused evaluation: position, coefficient, cost and normal equations
@@ -121,7 +121,8 @@ impl Buf {
 
 mod lanes;
 
-use lanes::Lanes;
+use crate::cpu::{Avx, AvxFma};
+use lanes::{Baseline, Lanes};
 
 /// The lane sums of one evaluation: JᵀJ terms (h11, h12, h22), ⟨I,∂I/∂x⟩, ⟨I,∂I/∂y⟩
 /// (weighted; without a scale `xi` holds ‖t − corner‖² instead) and the residual terms
@@ -173,6 +174,7 @@ fn point<V: Lanes>(gx: f64, gy: f64, c: f32, scaled: bool, s: &Sums<V>) -> (Poin
 /// `acc`, with the weights `w` (`W`) or all 1. Returns c.
 #[inline(always)]
 fn scaled_residuals<V: Lanes, const W: bool>(
+    cpu: V::Cpu,
     t: &[f32],
     w: &[f32],
     b: &Buf,
@@ -181,11 +183,11 @@ fn scaled_residuals<V: Lanes, const W: bool>(
     acc: &mut [V; 3],
 ) -> f32 {
     let c = if ii > 0.0 { (ti / ii).max(0.0) } else { 0.0 };
-    let cv = V::splat(c);
+    let cv = V::splat(cpu, c);
     for o in (0..t.len()).step_by(V::N) {
-        let r = V::load(t, o).sub(V::load(&b.v, o).mul(cv));
-        let (dx, dy) = (V::load(&b.dx, o), V::load(&b.dy, o));
-        accumulate::<V, W>(acc, r, w, o, dx, dy);
+        let r = V::load(cpu, t, o).sub(V::load(cpu, &b.v, o).mul(cv));
+        let (dx, dy) = (V::load(cpu, &b.dx, o), V::load(cpu, &b.dy, o));
+        accumulate::<V, W>(cpu, acc, r, (w, o), dx, dy);
     }
     c
 }
@@ -193,35 +195,18 @@ fn scaled_residuals<V: Lanes, const W: bool>(
 /// Add the weighted residual terms (Σ w r², Σ w r ∂I/∂gx, Σ w r ∂I/∂gy) of the lane
 /// block at `o` to `acc`, with the weights `w` (`W`) or all 1.
 #[inline(always)]
-fn accumulate<V: Lanes, const W: bool>(acc: &mut [V; 3], r: V, w: &[f32], o: usize, dx: V, dy: V) {
-    let wr = if W { V::load(w, o).mul(r) } else { r };
+fn accumulate<V: Lanes, const W: bool>(
+    cpu: V::Cpu,
+    acc: &mut [V; 3],
+    r: V,
+    (w, o): (&[f32], usize),
+    dx: V,
+    dy: V,
+) {
+    let wr = if W { V::load(cpu, w, o).mul(r) } else { r };
     acc[0] = acc[0].mul_add(wr, r);
     acc[1] = acc[1].mul_add(wr, dx);
     acc[2] = acc[2].mul_add(wr, dy);
-}
-
-/// Whether the processor has AVX (checked once per [`Single`]).
-fn avx_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// Whether the processor has AVX and FMA (checked once per [`Single`]).
-fn fma_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx") && std::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
 }
 
 impl<'a> Single<'a> {
@@ -246,8 +231,8 @@ impl<'a> Single<'a> {
             centre: table.to_grid(table.circle.cx, table.circle.cy),
             rmax: table.search_radius(),
             scale,
-            avx: avx_available(),
-            fma: fma_available(),
+            avx: Avx::detect(),
+            fma: AvxFma::detect(),
         }
     }
 
@@ -270,6 +255,7 @@ impl<'a> Single<'a> {
     #[inline(always)]
     pub fn eval<V: Lanes>(
         &self,
+        cpu: V::Cpu,
         t: &[f32],
         w: Option<&[f32]>,
         gx: f64,
@@ -278,10 +264,10 @@ impl<'a> Single<'a> {
     ) -> Point {
         let (gx, gy) = self.clamp(gx, gy);
         match (self.scale, w) {
-            (true, Some(w)) => self.eval_with::<V, true, true>(t, w, gx, gy, b),
-            (true, None) => self.eval_with::<V, true, false>(t, t, gx, gy, b),
-            (false, Some(w)) => self.eval_with::<V, false, true>(t, w, gx, gy, b),
-            (false, None) => self.eval_with::<V, false, false>(t, t, gx, gy, b),
+            (true, Some(w)) => self.eval_with::<V, true, true>(cpu, t, w, gx, gy, b),
+            (true, None) => self.eval_with::<V, true, false>(cpu, t, t, gx, gy, b),
+            (false, Some(w)) => self.eval_with::<V, false, true>(cpu, t, w, gx, gy, b),
+            (false, None) => self.eval_with::<V, false, false>(cpu, t, t, gx, gy, b),
         }
     }
 
@@ -291,6 +277,7 @@ impl<'a> Single<'a> {
     #[inline(always)]
     fn eval_with<V: Lanes, const SCALE: bool, const W: bool>(
         &self,
+        cpu: V::Cpu,
         t: &[f32],
         w: &[f32],
         gx: f64,
@@ -302,8 +289,8 @@ impl<'a> Single<'a> {
         let c0 = (gx.max(0.0) as usize).min(self.width - 2);
         let r0 = (gy.max(0.0) as usize).min(self.height - 2);
         let (a, bv) = (
-            V::splat((gx - c0 as f64) as f32),
-            V::splat((gy - r0 as f64) as f32),
+            V::splat(cpu, (gx - c0 as f64) as f32),
+            V::splat(cpu, (gy - r0 as f64) as f32),
         );
         let top = (r0 * self.width + c0) * kp;
         let bot = self.width * kp;
@@ -317,7 +304,7 @@ impl<'a> Single<'a> {
         } else {
             0
         };
-        let z = V::zero();
+        let z = V::zero(cpu);
         let (mut ti, mut ii, mut h11, mut h12, mut h22) = (z, z, z, z, z);
         let (mut xi, mut yi) = (z, z);
         let mut res = [z; 3];
@@ -336,9 +323,9 @@ impl<'a> Single<'a> {
         let rest = d[eo..eo + kp].chunks_exact(n).zip(t.chunks_exact(n));
         for (i, (((x00, x01), (x10, x11)), (ec, tc))) in cells.zip(rest).enumerate() {
             let o = i * n;
-            let (x00, x01) = (V::load(x00, 0), V::load(x01, 0));
-            let (x10, x11) = (V::load(x10, 0), V::load(x11, 0));
-            let tl = V::load(tc, 0);
+            let (x00, x01) = (V::load(cpu, x00, 0), V::load(cpu, x01, 0));
+            let (x10, x11) = (V::load(cpu, x10, 0), V::load(cpu, x11, 0));
+            let tl = V::load(cpu, tc, 0);
             let (e0, e1) = (x01.sub(x00), x11.sub(x10));
             let up = x00.mul_add(e0, a);
             let dy = x10.mul_add(e1, a).sub(up);
@@ -346,7 +333,7 @@ impl<'a> Single<'a> {
             let dx = e0.mul_add(e1.sub(e0), bv);
             v.store(&mut b.v, o);
             let (wdx, wdy) = if W {
-                let wl = V::load(w, o);
+                let wl = V::load(cpu, w, o);
                 (wl.mul(dx), wl.mul(dy))
             } else {
                 (dx, dy)
@@ -357,21 +344,21 @@ impl<'a> Single<'a> {
             if SCALE {
                 dx.store(&mut b.dx, o);
                 dy.store(&mut b.dy, o);
-                let wv = if W { V::load(w, o).mul(v) } else { v };
+                let wv = if W { V::load(cpu, w, o).mul(v) } else { v };
                 ti = ti.mul_add(wv, tl);
                 ii = ii.mul_add(wv, v);
                 xi = xi.mul_add(wv, dx);
                 yi = yi.mul_add(wv, dy);
             } else {
-                accumulate::<V, W>(&mut res, tl.sub(v), w, o, dx, dy);
-                let q = tl.sub(V::load(ec, 0));
+                accumulate::<V, W>(cpu, &mut res, tl.sub(v), (w, o), dx, dy);
+                let q = tl.sub(V::load(cpu, ec, 0));
                 xi = xi.mul_add(q, q);
             }
         }
         let (c, ii) = if SCALE {
             let ii = ii.sum();
             (
-                scaled_residuals::<V, W>(t, w, b, ti.sum(), ii, &mut res),
+                scaled_residuals::<V, W>(cpu, t, w, b, ti.sum(), ii, &mut res),
                 ii,
             )
         } else {
@@ -420,25 +407,27 @@ impl<'a> Single<'a> {
         b: &mut Buf,
     ) -> (Point, bool) {
         #[cfg(target_arch = "x86_64")]
-        if self.fma {
-            // SAFETY: `fma` is set only where the processor reports AVX and FMA
-            return unsafe { self.refine_fma(t, w, gx, gy, iters, b) };
+        if let Some(cpu) = self.fma {
+            // SAFETY: the token `cpu` exists only where the processor has AVX and FMA,
+            // all that `refine_fma` needs
+            return unsafe { self.refine_fma(cpu, t, w, gx, gy, iters, b) };
         }
         #[cfg(target_arch = "x86_64")]
-        if self.avx {
-            // SAFETY: `avx` is set only where the processor reports AVX (`Single::new`)
-            return unsafe { self.refine_avx(t, w, gx, gy, iters, b) };
+        if let Some(cpu) = self.avx {
+            // SAFETY: the token `cpu` exists only where the processor has AVX
+            return unsafe { self.refine_avx(cpu, t, w, gx, gy, iters, b) };
         }
-        self.refine_with::<lanes::V4>(t, w, gx, gy, iters, b)
+        self.refine_with::<lanes::V4>(Baseline, t, w, gx, gy, iters, b)
     }
 
     /// [`Single::refine`] compiled with AVX, on 8-lane vectors (the lane sums are taken
-    /// in another order than the 4-lane build's: results agree to rounding). Safety: call
-    /// only where the processor has AVX.
+    /// in another order than the 4-lane build's: results agree to rounding).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn refine_avx(
+    #[allow(clippy::too_many_arguments)]
+    fn refine_avx(
         &self,
+        cpu: Avx,
         t: &[f32],
         w: Option<&[f32]>,
         gx: f64,
@@ -446,16 +435,17 @@ impl<'a> Single<'a> {
         iters: usize,
         b: &mut Buf,
     ) -> (Point, bool) {
-        self.refine_with::<lanes::V8>(t, w, gx, gy, iters, b)
+        self.refine_with::<lanes::V8>(cpu, t, w, gx, gy, iters, b)
     }
 
     /// [`Single::refine`] compiled with AVX and FMA, on 8-lane vectors with fused
     /// multiply-adds (rounded once: results agree with the other builds to rounding).
-    /// Safety: call only where the processor has AVX and FMA.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx,fma")]
-    unsafe fn refine_fma(
+    #[allow(clippy::too_many_arguments)]
+    fn refine_fma(
         &self,
+        cpu: AvxFma,
         t: &[f32],
         w: Option<&[f32]>,
         gx: f64,
@@ -463,13 +453,15 @@ impl<'a> Single<'a> {
         iters: usize,
         b: &mut Buf,
     ) -> (Point, bool) {
-        self.refine_with::<lanes::V8F>(t, w, gx, gy, iters, b)
+        self.refine_with::<lanes::V8F>(cpu, t, w, gx, gy, iters, b)
     }
 
     /// The body of [`Single::refine`], inlined into each build.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn refine_with<V: Lanes>(
         &self,
+        cpu: V::Cpu,
         t: &[f32],
         w: Option<&[f32]>,
         gx: f64,
@@ -477,7 +469,7 @@ impl<'a> Single<'a> {
         iters: usize,
         b: &mut Buf,
     ) -> (Point, bool) {
-        let mut cur = self.eval::<V>(t, w, gx, gy, b);
+        let mut cur = self.eval::<V>(cpu, t, w, gx, gy, b);
         let mut fresh = true;
         for _ in 0..iters {
             let [h11, h12, h22] = cur.h;
@@ -499,7 +491,7 @@ impl<'a> Single<'a> {
             }
             let mut accepted = false;
             for _ in 0..4 {
-                let f = self.eval::<V>(t, w, cur.gx + dx, cur.gy + dy, b);
+                let f = self.eval::<V>(cpu, t, w, cur.gx + dx, cur.gy + dy, b);
                 fresh = false;
                 if f.cost <= cur.cost {
                     cur = f;
@@ -535,10 +527,11 @@ mod tests {
     use crate::lut::table::test_sphere_table;
     use crate::sphere::Circle;
 
-    /// [`Single::eval`] on 8 AVX lanes. Safety: call only where the processor has AVX.
+    /// [`Single::eval`] on 8 AVX lanes.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn eval_avx(
+    fn eval_avx(
+        cpu: Avx,
         single: &Single,
         t: &[f32],
         w: Option<&[f32]>,
@@ -546,14 +539,14 @@ mod tests {
         gy: f64,
         b: &mut Buf,
     ) -> Point {
-        single.eval::<lanes::V8>(t, w, gx, gy, b)
+        single.eval::<lanes::V8>(cpu, t, w, gx, gy, b)
     }
 
-    /// [`Single::eval`] on 8 AVX lanes with FMA. Safety: call only where the processor
-    /// has AVX and FMA.
+    /// [`Single::eval`] on 8 AVX lanes with FMA.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx,fma")]
-    unsafe fn eval_fma(
+    fn eval_fma(
+        cpu: AvxFma,
         single: &Single,
         t: &[f32],
         w: Option<&[f32]>,
@@ -561,7 +554,7 @@ mod tests {
         gy: f64,
         b: &mut Buf,
     ) -> Point {
-        single.eval::<lanes::V8F>(t, w, gx, gy, b)
+        single.eval::<lanes::V8F>(cpu, t, w, gx, gy, b)
     }
 
     /// The 8-lane builds agree with the 4-lane one to rounding.
@@ -569,13 +562,13 @@ mod tests {
     fn check_wide(single: &Single, t: &[f32], w: Option<&[f32]>, g: (f64, f64), p: &Point) {
         let mut b = Buf::new(t.len());
         let mut wide = Vec::new();
-        if avx_available() {
-            // SAFETY: the processor has AVX (checked just above)
-            wide.push(unsafe { eval_avx(single, t, w, g.0, g.1, &mut b) });
+        if let Some(cpu) = Avx::detect() {
+            // SAFETY: the token exists only where the processor has AVX
+            wide.push(unsafe { eval_avx(cpu, single, t, w, g.0, g.1, &mut b) });
         }
-        if fma_available() {
-            // SAFETY: the processor has AVX and FMA (checked just above)
-            wide.push(unsafe { eval_fma(single, t, w, g.0, g.1, &mut b) });
+        if let Some(cpu) = AvxFma::detect() {
+            // SAFETY: the token exists only where the processor has AVX and FMA
+            wide.push(unsafe { eval_fma(cpu, single, t, w, g.0, g.1, &mut b) });
         }
         for p8 in wide {
             assert!((p8.cost - p.cost).abs() <= 1e-5 * (1.0 + p.cost));
@@ -630,7 +623,7 @@ mod tests {
                 };
                 for (gx, gy) in [(18.2, 24.9), (21.0, 26.5), (30.4, 12.1)] {
                     for (ws, wf) in [(Some(&w[..]), &w), (None, &ones)] {
-                        let p = single.eval::<lanes::V4>(&t, ws, gx, gy, &mut b);
+                        let p = single.eval::<lanes::V4>(Baseline, &t, ws, gx, gy, &mut b);
                         #[cfg(target_arch = "x86_64")]
                         check_wide(&single, &t, ws, (gx, gy), &p);
                         let f = model.eval(&t[..k], Some(&wf[..k]), gx, gy, &mut s);

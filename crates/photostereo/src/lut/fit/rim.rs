@@ -25,6 +25,7 @@
 //! rim fit replaces the table fit only when its residual is lower.
 
 use super::generic::Fit;
+use crate::cpu::Avx;
 use crate::lut::table::Table;
 
 /// Polar-angle width (radians) of the ring of entries the model is fitted to.
@@ -59,7 +60,7 @@ pub(crate) struct Rim {
     /// The scan's values of θ with their sine and cosine (the same for every pixel).
     scan: Vec<(f64, f64, f64)>,
     /// The processor has AVX: the fit runs on 8-lane vectors (same arithmetic).
-    avx: bool,
+    avx: Option<Avx>,
 }
 
 /// Workspace of one rim fit (every vector padded with zeros to `kp` values).
@@ -95,18 +96,6 @@ impl RimBuf {
             trig: [0.0; 4],
             a: vec![0.0; kp],
         }
-    }
-}
-
-/// Whether the processor has AVX (checked once per [`Rim`]).
-fn avx_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
     }
 }
 
@@ -201,7 +190,7 @@ impl Rim {
             beta,
             theta_clean,
             scan,
-            avx: avx_available(),
+            avx: Avx::detect(),
         })
     }
 
@@ -328,19 +317,20 @@ impl Rim {
         b: &mut RimBuf,
     ) -> (f64, f64, f32, f32) {
         #[cfg(target_arch = "x86_64")]
-        if self.avx {
-            // SAFETY: `avx` is set only where the processor reports AVX (`Rim::fit`)
-            return unsafe { self.solve_avx(t, w, n0, scale, b) };
+        if let Some(cpu) = self.avx {
+            // SAFETY: the token `cpu` exists only where the processor has AVX
+            return unsafe { self.solve_avx(cpu, t, w, n0, scale, b) };
         }
         self.solve_any(t, w, n0, scale, b)
     }
 
     /// [`Rim::solve`] compiled with AVX (8-lane loops; no fused multiply-add, so the
-    /// same results as the generic build). Safety: call only where the processor has AVX.
+    /// same results as the generic build); `_cpu` proves the processor has AVX.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn solve_avx(
+    fn solve_avx(
         &self,
+        _cpu: Avx,
         t: &[f32],
         w: &[f32],
         n0: [f32; 3],
@@ -585,7 +575,7 @@ mod tests {
                         0.0,
                     ];
                     let mut fits = vec![];
-                    for avx in [false, avx_available()] {
+                    for avx in [None, Avx::detect()] {
                         rim.avx = avx;
                         fits.push(rim.solve(&t, &w, n0, scale, &mut b));
                     }

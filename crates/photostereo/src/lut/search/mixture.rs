@@ -43,6 +43,7 @@
 //! (the exhaustive search at every pixel took 35–49× and 22–55×).
 
 use super::{Fit, Solver, Warm, Work, COARSE_KEEP};
+use crate::cpu::Avx;
 use crate::lut::fit::generic::gram5;
 
 /// Distance (coarse steps) from the best coarse point within which a fit counts as
@@ -66,7 +67,7 @@ pub(super) struct Scan {
     /// pair is degenerate), 1/⟨A,A⟩, 1/⟨B,B⟩ (0 where the tuple is 0).
     gram: Vec<[[f32; LANES]; 8]>,
     /// The processor has AVX.
-    avx: bool,
+    avx: Option<Avx>,
 }
 
 impl Scan {
@@ -90,10 +91,7 @@ impl Scan {
             g[6][l] = if aa > 0.0 { 1.0 / aa } else { 0.0 };
             g[7][l] = if bb > 0.0 { 1.0 / bb } else { 0.0 };
         }
-        #[cfg(target_arch = "x86_64")]
-        let avx = std::is_x86_feature_detected!("avx");
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx = false;
+        let avx = Avx::detect();
         Scan {
             k,
             points,
@@ -109,9 +107,9 @@ impl Scan {
     /// fit explains.
     fn best(&self, t: &[f32], w: Option<&[f32]>) -> [(f32, usize); COARSE_KEEP] {
         #[cfg(target_arch = "x86_64")]
-        if self.avx {
-            // SAFETY: `avx` is set only where the processor reports AVX (`Scan::new`)
-            return unsafe { self.best_avx(t, w) };
+        if let Some(cpu) = self.avx {
+            // SAFETY: the token `cpu` exists only where the processor has AVX
+            return unsafe { self.best_avx(cpu, t, w) };
         }
         self.best_with(t, w)
     }
@@ -119,7 +117,7 @@ impl Scan {
     /// [`Scan::best`] compiled for AVX (8 lanes per instruction instead of 4).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn best_avx(&self, t: &[f32], w: Option<&[f32]>) -> [(f32, usize); COARSE_KEEP] {
+    fn best_avx(&self, _cpu: Avx, t: &[f32], w: Option<&[f32]>) -> [(f32, usize); COARSE_KEEP] {
         self.best_with(t, w)
     }
 

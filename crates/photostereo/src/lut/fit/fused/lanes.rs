@@ -1,19 +1,32 @@
 //! f32 lane vectors for the fused pass of `fused.rs`: [`V4`] (SSE2 on x86-64, always
 //! there; plain arrays elsewhere) and, on x86-64, [`V8`] (AVX) and [`V8F`] (AVX with fused
-//! multiply-adds), used only by `Single::refine`'s wide builds, which run only where the
-//! processor has those features.
+//! multiply-adds).
+//!
+//! Sound by construction: a vector is made only by [`Lanes::zero`], [`Lanes::splat`] or
+//! [`Lanes::load`], each of which takes the lane type's [`Lanes::Cpu`] token, and the
+//! wide types' tokens ([`Avx`], [`AvxFma`]) exist only where the processor has those
+//! instructions (`crate::cpu`). So wherever a `V8` or `V8F` value exists, its intrinsics
+//! are available, and every method on it is safe to call.
 
+#[cfg(target_arch = "x86_64")]
+use crate::cpu::{Avx, AvxFma};
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 
+/// The x86-64 baseline (SSE2), or plain arrays elsewhere: always there.
+#[derive(Clone, Copy, Debug)]
+pub struct Baseline;
+
 /// The operations of the fused pass on `N` lanes.
 pub trait Lanes: Copy {
+    /// Proof that the processor runs this type's instructions.
+    type Cpu: Copy;
     /// Number of lanes.
     const N: usize;
-    fn zero() -> Self;
-    fn splat(x: f32) -> Self;
+    fn zero(cpu: Self::Cpu) -> Self;
+    fn splat(cpu: Self::Cpu, x: f32) -> Self;
     /// The `N` values at `s[at..at + N]`.
-    fn load(s: &[f32], at: usize) -> Self;
+    fn load(cpu: Self::Cpu, s: &[f32], at: usize) -> Self;
     fn store(self, s: &mut [f32], at: usize);
     fn add(self, o: Self) -> Self;
     fn sub(self, o: Self) -> Self;
@@ -41,27 +54,28 @@ pub struct V4(__m128);
 #[derive(Clone, Copy)]
 pub struct V4([f32; 4]);
 
-/// `impl Lanes` for a vector type over x86-64 intrinsics: its lane count, then the
+/// `impl Lanes` for a vector type over x86-64 intrinsics: its token, its lane count, then the
 /// intrinsics for zero, splat, unaligned load and store, add, sub and mul, then the
 /// body of `sum`, then any overridden methods. Loads and stores go through slices of
 /// exactly N values.
 #[cfg(target_arch = "x86_64")]
 macro_rules! intrinsic_lanes {
-    ($v:ident, $n:literal, $zero:ident, $splat:ident, $load:ident, $store:ident,
+    ($v:ident, $cpu:ty, $n:literal, $zero:ident, $splat:ident, $load:ident, $store:ident,
      $add:ident, $sub:ident, $mul:ident, |$x:ident| $sum:block $(, $extra:item)*) => {
         impl Lanes for $v {
             $($extra)*
+            type Cpu = $cpu;
             const N: usize = $n;
             #[inline(always)]
-            fn zero() -> $v {
+            fn zero(_: $cpu) -> $v {
                 $v(unsafe { $zero() })
             }
             #[inline(always)]
-            fn splat(x: f32) -> $v {
+            fn splat(_: $cpu, x: f32) -> $v {
                 $v(unsafe { $splat(x) })
             }
             #[inline(always)]
-            fn load(s: &[f32], at: usize) -> $v {
+            fn load(_: $cpu, s: &[f32], at: usize) -> $v {
                 let s = &s[at..at + $n];
                 $v(unsafe { $load(s.as_ptr()) })
             }
@@ -96,6 +110,7 @@ macro_rules! intrinsic_lanes {
 #[cfg(target_arch = "x86_64")]
 intrinsic_lanes!(
     V4,
+    Baseline,
     4,
     _mm_setzero_ps,
     _mm_set1_ps,
@@ -112,17 +127,18 @@ intrinsic_lanes!(
 
 #[cfg(not(target_arch = "x86_64"))]
 impl Lanes for V4 {
+    type Cpu = Baseline;
     const N: usize = 4;
     #[inline(always)]
-    fn zero() -> V4 {
+    fn zero(_: Baseline) -> V4 {
         V4([0.0; 4])
     }
     #[inline(always)]
-    fn splat(x: f32) -> V4 {
+    fn splat(_: Baseline, x: f32) -> V4 {
         V4([x; 4])
     }
     #[inline(always)]
-    fn load(s: &[f32], at: usize) -> V4 {
+    fn load(_: Baseline, s: &[f32], at: usize) -> V4 {
         V4([s[at], s[at + 1], s[at + 2], s[at + 3]])
     }
     #[inline(always)]
@@ -147,15 +163,13 @@ impl Lanes for V4 {
     }
 }
 
-/// Eight f32 lanes (AVX). Used only inside `Single::refine_avx`, which runs only
-/// after the run-time check that the processor has AVX.
+/// Eight f32 lanes (AVX): made only with an [`Avx`] token.
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
 pub struct V8(__m256);
 
-/// Eight f32 lanes with fused multiply-add (AVX and FMA). Used only inside
-/// `Single::refine_fma`, which runs only after the run-time check that the processor
-/// has both.
+/// Eight f32 lanes with fused multiply-add (AVX and FMA): made only with an [`AvxFma`]
+/// token.
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
 pub struct V8F(__m256);
@@ -187,12 +201,14 @@ unsafe fn sum_avx(x: __m256) -> f32 {
 }
 
 // SAFETY (all `unsafe` blocks of this impl): the AVX intrinsics are sound where the
-// processor has AVX; `V8` is used only by `Single::refine_avx`, which
-// `Single::refine` calls only when `is_x86_feature_detected!("avx")` said so (the
-// methods are inlined into it, so the intrinsics are compiled with AVX enabled).
+// processor has AVX, and it has: a `V8` is made only with an `Avx` token (the methods
+// taking `self` run on a value that exists, the others take the token), and an `Avx`
+// exists only where the run-time check found AVX (`crate::cpu`). For speed the methods
+// are inlined into functions compiled with AVX enabled (`Single::refine_avx`).
 #[cfg(target_arch = "x86_64")]
 intrinsic_lanes!(
     V8,
+    Avx,
     8,
     _mm256_setzero_ps,
     _mm256_set1_ps,
@@ -209,12 +225,12 @@ intrinsic_lanes!(
 );
 
 // SAFETY (all `unsafe` blocks of this impl): the AVX and FMA intrinsics are sound
-// where the processor has both; `V8F` is used only by `Single::refine_fma`, which
-// `Single::refine` calls only when `is_x86_feature_detected!` reported AVX and FMA
-// (the methods are inlined into it, so the intrinsics are compiled with both).
+// where the processor has both, and it has: a `V8F` is made only with an `AvxFma`
+// token, which exists only where the run-time check found both (`crate::cpu`).
 #[cfg(target_arch = "x86_64")]
 intrinsic_lanes!(
     V8F,
+    AvxFma,
     8,
     _mm256_setzero_ps,
     _mm256_set1_ps,
