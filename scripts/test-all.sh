@@ -11,7 +11,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 # A Rust test skipped for want of ../shared or Chromium prints `SKIP <test>: <why>` and
-# leaves one marker file here (crates/photostereo/tests/shared_data); the log ends with
+# leaves one marker file here (crates/photostereo/tests/common/shared.rs); the log ends with
 # their count, pass or fail. (.ci/run makes such a skip a failure instead.)
 if [ -z "${PHOTOSTEREO_SKIP_DIR:-}" ]; then
   PHOTOSTEREO_SKIP_DIR="$(mktemp -d)"

@@ -6,9 +6,6 @@
 //! plastic with its diffuse reflectance textured (`tests/data/mitsuba_textured_plastic`
 //! of the library, see its README). Skipped when `../shared` is absent.
 
-#[path = "../../photostereo/tests/shared_data/mod.rs"]
-mod shared_data;
-
 use std::path::{Path, PathBuf};
 
 use photostereo::io;
@@ -39,7 +36,7 @@ fn mean_error(out: &Path, dir: &Path) -> f64 {
 #[test]
 fn normalize_on_a_specular_table_fits_diffuse_and_specular() {
     let test = "normalize_on_a_specular_table_fits_diffuse_and_specular";
-    let Some(sphere) = shared_data::path(test, "data/calib_roughplastic") else {
+    let Some(sphere) = common::shared::path(test, "data/calib_roughplastic") else {
         return;
     };
     let dir = common::scratch("albedo-changes", "specular");
@@ -87,8 +84,8 @@ fn normalize_on_a_specular_table_fits_diffuse_and_specular() {
 fn normalize_on_a_matte_table_stays_normalised_matching() {
     let test = "normalize_on_a_matte_table_stays_normalised_matching";
     let (Some(sphere), Some(target)) = (
-        shared_data::path(test, "data/calib_diffuse"),
-        shared_data::path(test, "data/target_diffuse"),
+        common::shared::path(test, "data/calib_diffuse"),
+        common::shared::path(test, "data/target_diffuse"),
     ) else {
         return;
     };

@@ -6,6 +6,7 @@
 //!
 //! Each case prints `case | wall s | peak RSS MB | message` (run with `--nocapture`).
 
+mod common;
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -19,12 +20,7 @@ const MAX_RSS_MB: f64 = 1000.0;
 
 /// A fresh, empty directory.
 fn tmp(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("bad-files")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("bad-files", name)
 }
 
 /// What one run of the executable did.

@@ -3,11 +3,10 @@
 //!
 //! Needs `chromium` (Debian package; `.ci/run` installs it) or a browser named by
 //! `PHOTOSTEREO_CHROMIUM`. Where none is found the tests are skipped (a `SKIP` line and a
-//! marker that `.ci/run` counts, see `shared_data`), or fail under
+//! marker that `.ci/run` counts, see `common::shared`), or fail under
 //! `PHOTOSTEREO_REQUIRE_BROWSER=1`.
 
-#[path = "../../photostereo/tests/shared_data/mod.rs"]
-mod shared_data;
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -20,12 +19,12 @@ const WINDOW: (u32, u32) = (1280, 900);
 /// Background of the 3-D view (#1b1e24 in the page's style and the viewer's scene).
 const VIEW_BG: [u8; 3] = [0x1b, 0x1e, 0x24];
 
-/// The browser for `test`, or `None`: a skip (see `shared_data`), or a failure under
+/// The browser for `test`, or `None`: a skip (see `common::shared`), or a failure under
 /// `PHOTOSTEREO_REQUIRE_BROWSER=1` (set by `.ci/run`).
 fn browser(test: &str) -> Option<PathBuf> {
     let found = chromium();
     if found.is_none() {
-        shared_data::skip(
+        common::shared::skip(
             test,
             "no chromium found (apt-get install chromium, or set PHOTOSTEREO_CHROMIUM)",
             "PHOTOSTEREO_REQUIRE_BROWSER",
@@ -407,7 +406,7 @@ fn real_buddha_report_shows_a_shaded_surface_without_errors() {
     let Some(browser) = browser("real_buddha_report_shows_a_shaded_surface_without_errors") else {
         return;
     };
-    let Some(real) = shared_data::path(
+    let Some(real) = common::shared::path(
         "real_buddha_report_shows_a_shaded_surface_without_errors",
         "data/real",
     ) else {

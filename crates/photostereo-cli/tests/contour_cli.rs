@@ -28,9 +28,7 @@ fn edge_and_interior(est: &NormalMap, gt: &NormalMap, mask: &Mask) -> (f64, f64)
             if !*mask.get(r, c) {
                 continue;
             }
-            let (a, b) = (est.get(r, c), gt.get(r, c));
-            let dot: f32 = (0..3).map(|i| a[i] * b[i]).sum();
-            let e = (dot.clamp(-1.0, 1.0) as f64).acos().to_degrees();
+            let e = common::angle_deg(*est.get(r, c), *gt.get(r, c));
             let out = !*mask.get(r - 1, c)
                 || !*mask.get(r + 1, c)
                 || !*mask.get(r, c - 1)

@@ -14,10 +14,9 @@
 //! of any other program fails the test until it is taught here.
 //!
 //! A command that reads `../shared` or `real/` (the real photographs) is skipped with a
-//! printed message when the shared folder is absent (see `shared_data`).
+//! printed message when the shared folder is absent (see `common::shared`).
 
-#[path = "../../photostereo/tests/shared_data/mod.rs"]
-mod shared_data;
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -139,7 +138,7 @@ fn sandbox(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     let repo = dir.join("repo");
     std::fs::create_dir_all(&repo).unwrap();
-    let shared = shared_data::root();
+    let shared = common::shared::root();
     if shared.is_dir() {
         let shared = shared.canonicalize().unwrap();
         std::os::unix::fs::symlink(&shared, dir.join("shared")).unwrap();
@@ -220,7 +219,7 @@ fn run_example(test: &str, repo: &Path, line: &str) {
         .any(|a| a.starts_with("../shared") || a.starts_with("real/"));
     if needs_shared && !repo.join("../shared").exists() {
         let why = format!("`{line}` reads the shared data, which is absent");
-        shared_data::skip(
+        common::shared::skip(
             &format!("{test} {line}"),
             &why,
             "PHOTOSTEREO_REQUIRE_SHARED",

@@ -12,11 +12,7 @@ mod common;
 use common::{photostereo_ok as photostereo, s};
 
 fn tmp(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("entry-points")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    d
+    common::scratch("entry-points", name)
 }
 
 /// A 64×64 Lambertian bowl (albedo 0.8, 12 lights) rendered with all bounces by

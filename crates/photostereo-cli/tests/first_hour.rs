@@ -5,8 +5,7 @@
 //! `bench --only` rejects a row name it does not know and lists the ones it does;
 //! warnings, pictures and messages; progress as plain lines when stderr is not a terminal.
 
-#[path = "../../photostereo/tests/shared_data/mod.rs"]
-mod shared_data;
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -122,9 +121,9 @@ fn bench_only_rejects_unknown_rows_and_help_lists_them() {
 }
 
 /// `../shared/data/real` (or `$PHOTOSTEREO_SHARED/data/real`), where the photographs
-/// are; `None` is a recorded skip of `test` (see `shared_data`).
+/// are; `None` is a recorded skip of `test` (see `common::shared`).
 fn real_data(test: &str) -> Option<PathBuf> {
-    shared_data::path(test, "data/real")
+    common::shared::path(test, "data/real")
 }
 
 fn json(path: &Path) -> serde_json::Value {

@@ -1,6 +1,7 @@
 //! End-to-end `photostereo integrate`: files in, depth/PNG/mesh out; bad input leaves
 //! no output behind.
 
+mod common;
 use photostereo::image::{pixel_to_xy, Image};
 use photostereo::{io, Mask, NormalMap};
 use std::path::{Path, PathBuf};
@@ -11,10 +12,7 @@ fn bin() -> Command {
 }
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ps-integrate-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("integrate-cli", name)
 }
 
 /// A sphere of radius 30 in a 80x64 image, its mask, one NaN normal inside.

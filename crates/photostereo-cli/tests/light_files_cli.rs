@@ -2,6 +2,7 @@
 //! `--lights`) and an AliceVision `lights.json` give the same normals as
 //! `light_directions.txt`; bad files are refused with the file named.
 
+mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -11,12 +12,7 @@ use photostereo::synth::{self, Material, SceneOptions, Shape, ShapeKind};
 const SIZE: usize = 64;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("light-files")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("light-files", name)
 }
 
 /// A Lambertian blob under 12 lights, written as a DiLiGenT dataset `tmp(name)`.

@@ -1,6 +1,7 @@
 //! `photostereo lights` end to end on a written synthetic matte sphere, and its
 //! refusal of a directory without a sphere.
 
+mod common;
 use photostereo::image::{ImageStack, Lights};
 use photostereo::io;
 use photostereo::synth::{default_lights, render_calibration_sphere, Material, SceneOptions};
@@ -8,17 +9,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "photostereo_lights_cli_{name}_{}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
-
-fn angle_deg(a: [f32; 3], b: [f32; 3]) -> f64 {
-    let d = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) as f64;
-    d.clamp(-1.0, 1.0).acos().to_degrees()
+    common::scratch("lights-cli", name)
 }
 
 #[test]
@@ -59,7 +50,7 @@ fn matte_sphere_directory_gives_the_lights() {
         .directions
         .iter()
         .zip(&opts.lights.directions)
-        .map(|(a, b)| angle_deg(*a, *b))
+        .map(|(a, b)| common::angle_deg(*a, *b))
         .fold(0.0, f64::max);
     println!("worst light error through the CLI: {worst:.3}°");
     assert!(worst < 0.06, "worst light {worst}°"); // measured 0.020°

@@ -47,8 +47,7 @@ fn errors(est: &NormalMap, gt: &NormalMap, mask: &Mask) -> Vec<(f64, usize)> {
             (len - 1.0).abs() < 1e-3,
             "pixel {i}: normal {e:?} is not a unit vector"
         );
-        let d = (e[0] * g[0] + e[1] * g[1] + e[2] * g[2]) as f64 / len as f64;
-        out.push((d.clamp(-1.0, 1.0).acos().to_degrees(), i));
+        out.push((common::angle_deg(*e, *g), i));
     }
     out
 }

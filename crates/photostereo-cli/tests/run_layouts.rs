@@ -2,6 +2,7 @@
 //! `filenames.txt`, `mask.png` and `light_intensities.txt`, Lambertian and lookup-table;
 //! accuracy read back from `run.json` against the ground truth written beside the images.
 
+mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -12,12 +13,7 @@ use photostereo::synth::{self, Material, SceneOptions, Shape, ShapeKind};
 const SIZE: usize = 96;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("run-layouts")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("run-layouts", name)
 }
 
 fn scene(material: Material) -> SceneOptions {

@@ -1,9 +1,8 @@
 //! `photostereo run --lambertian --interreflections` on the independent Mitsuba render of
 //! a 90° V-groove (16 bounces), whose 16-bit images store radiance × `scale` (meta.json).
-//! Skipped (visibly, see `shared_data`) when the shared folder is absent.
+//! Skipped (visibly, see `common::shared`) when the shared folder is absent.
 
-#[path = "../../photostereo/tests/shared_data/mod.rs"]
-mod shared_data;
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -38,7 +37,7 @@ fn run_vgroove(data: &Path, extra: &[&str], name: &str) -> (f64, f64, f64) {
 #[test]
 fn mitsuba_vgroove_deepens_to_the_truth_with_the_radiometric_scale() {
     const TRUE_DEPTH: f64 = 79.5;
-    let Some(data) = shared_data::path(
+    let Some(data) = common::shared::path(
         "mitsuba_vgroove_deepens_to_the_truth_with_the_radiometric_scale",
         "data/vgroove_interreflect",
     ) else {

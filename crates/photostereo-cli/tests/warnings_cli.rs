@@ -5,9 +5,6 @@
 //! `--sphere-mask`, `--lut`, `--normalize`). Each case is checked on the terminal and in
 //! `run.json`, beside the same command on correct input, which must stay silent.
 
-#[path = "../../photostereo/tests/shared_data/mod.rs"]
-mod shared_data;
-
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
@@ -119,7 +116,7 @@ fn calibrate_warns_on_a_circle_a_few_pixels_off() {
 #[test]
 fn calibrate_warns_on_the_shared_sphere_20_px_off() {
     let test = "calibrate_warns_on_the_shared_sphere_20_px_off";
-    let Some(sphere) = shared_data::path(test, "data/calib_roughplastic") else {
+    let Some(sphere) = common::shared::path(test, "data/calib_roughplastic") else {
         return;
     };
     let out = tmp("shared-circle");

@@ -20,7 +20,8 @@ use photostereo::{DepthMap, GrayImage, NormalMap};
 use std::time::{Duration, Instant};
 
 // The analytic height fields of the interreflection tests.
-#[path = "../tests/interreflect_common/mod.rs"]
+#[path = "../tests/common/interreflect_scene.rs"]
+#[allow(dead_code)]
 mod common;
 
 /// A ring trough around a central hill (many hidden facet pairs).

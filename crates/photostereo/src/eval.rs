@@ -72,8 +72,9 @@ fn valid(n: &[f32; 3]) -> bool {
     n.iter().all(|v| v.is_finite()) && *n != [0.0; 3]
 }
 
-/// Angle between two non-zero vectors, degrees.
-fn angle_deg(a: &[f32; 3], b: &[f32; 3]) -> f64 {
+/// Angle between two non-zero vectors, degrees, as atan2(‖a × b‖, a · b): accurate near
+/// 0° and 180°, where acos of the dot product loses half the digits.
+pub fn angle_deg(a: &[f32; 3], b: &[f32; 3]) -> f64 {
     let a = a.map(f64::from);
     let b = b.map(f64::from);
     let cross = [

@@ -4,6 +4,7 @@
 //! mask at many rows, for a lookup with a sphere and for Lambertian photometric stereo.
 //! And a capture over the memory budget stops before anything is read or written.
 
+mod common;
 use photostereo::error::Setting;
 use photostereo::pipeline::{self, Inputs, Options};
 use photostereo::progress::NoProgress;
@@ -12,10 +13,7 @@ use photostereo::{io, Error};
 use std::path::{Path, PathBuf};
 
 fn tmp_dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("banded_run_{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::temp_dir("banded-run", name)
 }
 
 /// A 96×80 vase under 12 lights (16-bit PNGs, with truth) and its sphere of radius 30.

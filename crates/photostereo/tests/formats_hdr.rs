@@ -9,6 +9,7 @@
 //! lookup tolerates exposure 16's clipped highlights because sphere and target clip
 //! alike, so on this scene the long exposure alone does as well as the merge.)
 
+mod common;
 use photostereo::image::ImageStack;
 use photostereo::io;
 use photostereo::pipeline::{self, Inputs, Options};
@@ -20,12 +21,7 @@ const SIZE: usize = 256;
 const RADIUS: f64 = 100.0;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("formats-hdr")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::temp_dir("formats-hdr", name)
 }
 
 /// Write light `i` of `stack` × `gain` as an 8-bit gray PNG (clipped, rounded).

@@ -3,8 +3,7 @@
 //! back with the default response (sRGB for JPEG) and solved by robust Lambertian
 //! photometric stereo: within 0.5° of the PNGs. Read as if linear, it is not.
 
-mod shared_data;
-
+mod common;
 use image::codecs::jpeg::JpegEncoder;
 use image::ImageEncoder;
 use photostereo::eval::angular_errors;
@@ -74,7 +73,7 @@ fn normals(dir: &Path, response: Response) -> (NormalMap, Mask) {
 #[test]
 fn diligent_ball_as_srgb_jpegs_gives_the_normals_of_the_pngs() {
     let test = "diligent_ball_as_srgb_jpegs_gives_the_normals_of_the_pngs";
-    let Some(ball) = shared_data::path(test, "data/real/diligent_ball") else {
+    let Some(ball) = common::shared::path(test, "data/real/diligent_ball") else {
         return;
     };
     let jpegs = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("ball-jpeg95");

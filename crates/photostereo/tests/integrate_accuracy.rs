@@ -2,9 +2,8 @@
 //! recover the exact depth to < 0.2% of the depth range; plain Frankot–Chellappa shows
 //! its periodic-boundary bias.
 
-mod integrate_support;
-
-use integrate_support::*;
+mod common;
+use common::surfaces::*;
 use photostereo::integrate::{integrate_gradients, Method};
 use photostereo::Mask;
 

@@ -1,9 +1,8 @@
 //! Sign convention: the normals of a convex sphere cap must integrate to a convex
 //! bump (centre higher than the rim) with every method, through `solve` (normals).
 
-mod integrate_support;
-
-use integrate_support::*;
+mod common;
+use common::surfaces::*;
 use photostereo::integrate::solve;
 use photostereo::Mask;
 

@@ -4,8 +4,7 @@
 //! error (MADE) in mm. Reads `../shared/data/real/diligent_normals`; skips with a
 //! message when the shared folder is absent.
 
-mod shared_data;
-
+mod common;
 use photostereo::integrate::{solve, Camera, Method, Options};
 use photostereo::{io, DepthMap, Mask};
 use std::io::Read;
@@ -88,7 +87,7 @@ fn load(dir: &Path, name: &str) -> Object {
     let d = dir.join(name);
     let normals = io::read_normals_png(&d.join("normal_map.png")).unwrap();
     let mask = io::read_mask(&d.join("mask.png")).unwrap();
-    let k = shared_data::read_text(&d.join("K.txt"));
+    let k = common::shared::read_text(&d.join("K.txt"));
     let camera = Camera::from_text(&k, "K.txt").unwrap();
     let gt = read_npz_depth(&d.join("depth_gt.npz"), normals.width, normals.height);
     Object {
@@ -123,7 +122,7 @@ fn score(o: &Object, method: Method) -> (f64, photostereo::integrate::Output) {
 
 #[test]
 fn bini_matches_the_paper_on_bear_and_harvest() {
-    let Some(dir) = shared_data::path(
+    let Some(dir) = common::shared::path(
         "bini_matches_the_paper_on_bear_and_harvest",
         "data/real/diligent_normals",
     ) else {

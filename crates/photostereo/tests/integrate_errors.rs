@@ -1,9 +1,8 @@
 //! Bad input: clamped normals are counted and never give NaN depth; empty masks,
 //! size mismatches and misplaced weights are clear errors.
 
-mod integrate_support;
-
-use integrate_support::*;
+mod common;
+use common::surfaces::*;
 use photostereo::integrate::{choose_method, fft_floor, gradients, solve, Method, Options};
 use photostereo::{Error, GrayImage, Mask};
 

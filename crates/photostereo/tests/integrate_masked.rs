@@ -2,9 +2,8 @@
 //! squares integrates each part on its own (< 0.5% of the range); Fourier methods
 //! integrate through the background and fail.
 
-mod integrate_support;
-
-use integrate_support::*;
+mod common;
+use common::surfaces::*;
 use photostereo::image::pixel_to_xy;
 use photostereo::integrate::{integrate_gradients, Method};
 use photostereo::Mask;

@@ -1,9 +1,8 @@
 //! Gaussian noise σ = 0.05 on the gradients: the least-squares methods must beat a
 //! single path integral by at least 5× in RMSE, and the two path orders must disagree.
 
-mod integrate_support;
-
-use integrate_support::*;
+mod common;
+use common::surfaces::*;
 use photostereo::integrate::path::{single_path, Order};
 use photostereo::integrate::{integrate_gradients, Method};
 use photostereo::Mask;

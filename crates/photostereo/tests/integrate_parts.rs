@@ -15,6 +15,8 @@
 //! orthographic (the same scenes seen along parallel rays, depth in pixels, larger =
 //! closer), the estimate shifted by the median difference, then MADE in mm.
 
+mod common;
+use common::Rng;
 use photostereo::integrate::{solve, Camera, Method, Options, Parts};
 use photostereo::{Image, Mask, NormalMap};
 
@@ -218,19 +220,10 @@ fn table(name: &str, s: &Scene) -> [[f64; 4]; 2] {
 }
 
 /// Perturb every normal by Gaussian noise of standard deviation `sigma` per component
-/// (renormalised; xorshift + Box–Muller, deterministic).
+/// (renormalised; deterministic).
 fn add_noise(s: &mut Scene, sigma: f32) {
-    let mut state = 0x9E37_79B9_7F4A_7C15u64;
-    let mut uniform = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    };
-    let mut gauss = || {
-        let (a, b) = (uniform(), uniform());
-        ((-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()) as f32
-    };
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let mut gauss = || rng.gauss();
     for n in &mut s.normals.data {
         let mut v = [
             n[0] + sigma * gauss(),

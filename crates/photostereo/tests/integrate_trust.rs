@@ -4,9 +4,8 @@
 //! garbage normals. Weighting each gradient by its trust must lower the depth error of
 //! masked least squares and of BiNI.
 
-mod integrate_support;
-
-use integrate_support::{disk, sphere_cap, Gauss, Surface};
+mod common;
+use common::surfaces::{disk, sphere_cap, Gauss, Surface};
 use photostereo::integrate::{
     choose_method_for, solve, trust_weights, Method, Options, TrustOptions,
 };

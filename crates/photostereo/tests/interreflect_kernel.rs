@@ -2,9 +2,8 @@
 //! tests quick; the bench `interreflect` prints the 64×64 figures), coarse facets against
 //! per-pixel facets, and physical checks of the kernel.
 
-mod interreflect_common;
-
-use interreflect_common::{albedo, bowl, direct, sample, trough};
+mod common;
+use common::interreflect_scene::{albedo, bowl, direct, sample, trough};
 use photostereo::image::{ImageStack, Mask};
 use photostereo::interreflect::{Model, RadiosityOptions, Visibility};
 use photostereo::progress::NoProgress;

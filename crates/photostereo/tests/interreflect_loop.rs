@@ -1,9 +1,8 @@
 //! The iteration's bookkeeping with a stand-in reconstruction: oscillation is detected, the
 //! run stops at the maximum and keeps the best iterate; plots are valid PNGs.
 
-mod interreflect_common;
-
-use interreflect_common::{bowl, direct, sample};
+mod common;
+use common::interreflect_scene::{bowl, direct, sample};
 use photostereo::image::{GrayImage, ImageStack, Mask};
 #[cfg(feature = "report")]
 use photostereo::interreflect::{convergence_plot_png, profile_plot_png};

@@ -8,8 +8,7 @@
 //! radiance units. The extra row of the scale table (`docs/interreflection-scale.md`) comes
 //! from here: the same images with that factor off by ×0.5 … ×2.
 
-mod shared_data;
-
+mod common;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -29,13 +28,13 @@ struct Data {
 
 /// `data/<name>` of the shared folder; `None` (a skip recorded for `test`) without it.
 fn dir(test: &str, name: &str) -> Option<PathBuf> {
-    shared_data::path(test, &format!("data/{name}"))
+    common::shared::path(test, &format!("data/{name}"))
 }
 
 /// Load the dataset in `dir` in radiance units; a failure when a file cannot be read.
 fn load(dir: &Path) -> Data {
     let meta_path = dir.join("meta.json");
-    let meta: serde_json::Value = serde_json::from_str(&shared_data::read_text(&meta_path))
+    let meta: serde_json::Value = serde_json::from_str(&common::shared::read_text(&meta_path))
         .unwrap_or_else(|e| panic!("{}: not JSON: {e}", meta_path.display()));
     let scale = meta["scale"]
         .as_f64()

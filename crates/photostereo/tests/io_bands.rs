@@ -1,6 +1,7 @@
 //! Reading light images by row bands (`io::bands`) gives exactly the values of the
 //! whole-stack loader, for PNGs read row by row and for files decoded whole (TIFF).
 
+mod common;
 use photostereo::image::ImageStack;
 use photostereo::io::{self, LoadOptions};
 use std::path::{Path, PathBuf};
@@ -12,10 +13,7 @@ fn data_dir(name: &str) -> PathBuf {
 }
 
 fn tmp_dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("io_bands_{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::temp_dir("io-bands", name)
 }
 
 /// Read `dir` by bands of `rows` rows and stitch them back into one stack.

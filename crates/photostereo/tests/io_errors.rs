@@ -1,15 +1,13 @@
 //! Every bad input to `io` gives a clear error naming the file; none panics.
 
+mod common;
 use photostereo::image::{Image, ImageStack, Lights};
 use photostereo::io::{self, LoadOptions};
 use photostereo::Error;
 use std::path::{Path, PathBuf};
 
 fn tmp_dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("io_err_{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::temp_dir("io-errors", name)
 }
 
 /// A valid 4x3, K = 3, 8-bit dataset with lights and a mask.

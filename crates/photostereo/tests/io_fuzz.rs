@@ -11,9 +11,13 @@
 //! `huge shape` strategy), and a table with 64 bytes flipped in its middle
 //! (`table_with_64_bytes_flipped…`, and the `Overwrite` mutation).
 
-mod fuzz_support;
+mod common;
+use common::fuzz::*;
 
-use fuzz_support::*;
+/// The fuzz binary's allocator (`common::fuzz::Capped`): refuses allocations over the
+/// calling thread's cap.
+#[global_allocator]
+static ALLOCATOR: Capped = Capped;
 use photostereo::io::{self, limits, LoadOptions};
 use photostereo::lut::{format, Table};
 use proptest::prelude::*;

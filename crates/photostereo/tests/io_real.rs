@@ -2,15 +2,14 @@
 //! see `shared_data`) when the shared data folder is absent, and fails when it is there
 //! but a dataset in it is missing or unreadable.
 
-mod shared_data;
-
+mod common;
 use photostereo::eval::angular_errors;
 use photostereo::io::{self, LoadOptions};
 use std::path::PathBuf;
 
 /// `data/<rel>` of the shared folder for the test `test`.
 fn dataset(test: &str, rel: &str) -> Option<PathBuf> {
-    shared_data::path(test, &format!("data/{rel}"))
+    common::shared::path(test, &format!("data/{rel}"))
 }
 
 #[test]

@@ -1,15 +1,13 @@
 //! Exact round trips through the writers and readers of `io`, and the luminance rule
 //! on a tiny real 8-bit RGB dataset.
 
+mod common;
 use photostereo::image::{normalize, Image, ImageStack, Lights, Mask};
 use photostereo::io::{self, LoadOptions};
 use std::path::{Path, PathBuf};
 
 fn tmp_dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("io_rt_{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::temp_dir("io-roundtrip", name)
 }
 
 fn data_dir(name: &str) -> PathBuf {

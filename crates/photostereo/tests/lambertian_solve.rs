@@ -1,12 +1,11 @@
 //! Lambertian photometric stereo on `synth` scenes with exact normals.
 
-mod sphere_support;
-
+mod common;
+use common::angle_deg;
 use photostereo::error::Error;
 use photostereo::image::{ImageStack, Lights, Mask, NormalMap};
 use photostereo::lambertian::{solve, Options, Output};
 use photostereo::synth::{default_lights, render, Material, Scene, SceneOptions, Shape, ShapeKind};
-use sphere_support::angle_deg;
 
 /// A noise-free `size`×`size` render of the preset `kind` in `material` under `k`
 /// default lights.

@@ -1,15 +1,13 @@
 //! Light calibration from synthetic matte and chrome spheres with known lights, and
 //! from the real chrome sphere against the published directions.
 
-mod shared_data;
-mod sphere_support;
-
+mod common;
+use common::angle_deg;
 use photostereo::error::{Error, Setting};
 use photostereo::image::ImageStack;
 use photostereo::lightcal::{from_chrome_sphere, from_matte_sphere, ChromeOptions, MatteOptions};
 use photostereo::sphere::{detect, Circle, DetectOptions};
 use photostereo::synth::{default_lights, render_calibration_sphere, Material, SceneOptions};
-use sphere_support::angle_deg;
 
 fn errors(found: &[[f32; 3]], truth: &[[f32; 3]]) -> Vec<f64> {
     found
@@ -90,7 +88,7 @@ fn chrome_sphere_within_one_degree() {
 #[test]
 fn mirror_sphere_raster_within_one_degree() {
     // an ideal mirror reflecting a light of 1.5° angular radius, area-sampled
-    use sphere_support::{render, Scene};
+    use common::sphere_scene::{render, Scene};
     let lights = default_lights(12).directions;
     let scene = Scene {
         width: 220,
@@ -157,11 +155,11 @@ fn black_sphere_images_are_refused() {
 #[test]
 fn real_chrome_sphere_against_published_lights() {
     let test = "real_chrome_sphere_against_published_lights";
-    let Some(real) = shared_data::path(test, "data/real") else {
+    let Some(real) = common::shared::path(test, "data/real") else {
         return;
     };
     let dir = real.join("chrome");
-    let stack = sphere_support::load_png_dir(&dir);
+    let stack = common::sphere_scene::load_png_dir(&dir);
     let mask = photostereo::io::read_mask(&dir.join("mask.png")).unwrap();
     let det = DetectOptions {
         mask: Some(mask),
@@ -175,7 +173,7 @@ fn real_chrome_sphere_against_published_lights() {
     );
     let (lights, highlights) =
         from_chrome_sphere(&stack, &circle, &ChromeOptions::default()).unwrap();
-    let text = shared_data::read_text(&real.join("lights_published.txt"));
+    let text = common::shared::read_text(&real.join("lights_published.txt"));
     let published: Vec<[f32; 3]> = text
         .lines()
         .filter(|l| !l.trim().is_empty())

@@ -1,9 +1,8 @@
 //! Lookup-table photometric stereo on analytic scenes (closed-form Blinn–Phong BRDF
 //! evaluated at pixel centres, no renderer): accuracy against the exact normals.
 
-mod lut_support;
-
-use lut_support::*;
+mod common;
+use common::lut_scene::*;
 use photostereo::image::ImageStack;
 use photostereo::lut::{self, BuildOptions, Method, Options, Output, Table};
 use photostereo::progress::NoProgress;

@@ -4,10 +4,10 @@
 //! average over their footprint (mixed rim pixels), sphere and target at different
 //! resolutions.
 
-mod lut_support;
-
-use lut_support::*;
-use photostereo::image::{dot3, normalize, ImageStack, Mask, NormalMap};
+mod common;
+use common::lut_scene::*;
+use common::angle_deg;
+use photostereo::image::{normalize, ImageStack, Mask, NormalMap};
 use photostereo::lut::{self, BuildOptions, Method, Options, Output, Table};
 use photostereo::progress::NoProgress;
 use photostereo::sphere::Circle;
@@ -24,10 +24,6 @@ const SHARP: Brdf = Brdf {
     shininess: 200.0,
 };
 const K: usize = 12;
-
-fn angle(a: [f32; 3], b: [f32; 3]) -> f64 {
-    (dot3(a, b) as f64).clamp(-1.0, 1.0).acos().to_degrees()
-}
 
 fn table(brdf: Brdf, noise: f32) -> Table {
     let (mut sph, circle) = sphere(128, 60.0, &lights(K), brdf);
@@ -115,8 +111,8 @@ fn check_against_isolated(stack: &ImageStack, truth: &NormalMap, t: &Table, bad:
     for i in 0..w * h {
         let rms = (stack.pixel_flat(i).iter().map(|v| v * v).sum::<f32>() / K as f32).sqrt();
         c.worse += (full.residual.data[i] > alone.residual.data[i] + 1e-3 * rms) as usize;
-        let e_full = angle(full.normals.data[i], truth.data[i]) > bad;
-        let e_alone = angle(alone.normals.data[i], truth.data[i]) > bad;
+        let e_full = angle_deg(full.normals.data[i], truth.data[i]) > bad;
+        let e_alone = angle_deg(alone.normals.data[i], truth.data[i]) > bad;
         c.bad_full += e_full as usize;
         c.bad_alone += e_alone as usize;
         c.carried += (e_full && !e_alone) as usize;
@@ -136,14 +132,14 @@ fn check_against_isolated(stack: &ImageStack, truth: &NormalMap, t: &Table, bad:
 fn rows_alternating_between_two_distant_normals() {
     let a = normalize([0.5, 0.3, 0.81]);
     let b = normalize([-0.6, -0.2, 0.77]);
-    println!("normals {:.1}° apart", angle(a, b));
+    println!("normals {:.1}° apart", angle_deg(a, b));
     let t = table(SHINY, 0.0);
     let (stack, truth) = target(64, 16, SHINY, |r, c| if (r + c) % 2 == 0 { a } else { b });
     let c = check_against_isolated(&stack, &truth, &t, 0.05);
     assert!(c.worse == 0 && c.bad_full == 0, "clean");
     let out = solve(&stack, &Mask::full(64, 16), &t, Method::Refined);
     let worst = (0..64 * 16)
-        .map(|i| angle(out.normals.data[i], truth.data[i]))
+        .map(|i| angle_deg(out.normals.data[i], truth.data[i]))
         .fold(0.0, f64::max);
     println!("clean: worst {worst:.4}°");
     // measured: worst 0.0000°
@@ -165,6 +161,9 @@ fn rows_alternating_between_two_distant_normals() {
 #[test]
 fn trap_where_the_previous_fit_is_a_local_minimum_of_the_next() {
     let t = table(SHARP, 0.0);
+    // xorshift, not `common::Rng`: the measured figures below are for this draw. With
+    // `Rng(0x9e37_79b9_7f4a_7c15)`'s draw 14 of 3200 pixels fit worse in the row than
+    // alone and 7 are > 1° off only in the row (a warm start can end in a worse basin)
     let mut seed = 0x9e37_79b9_7f4a_7c15u64;
     let mut uniform = move || {
         seed ^= seed << 13;
@@ -261,7 +260,7 @@ fn bands(out: &Output, c: &Circle, size: usize) -> [f64; 4] {
                 .iter()
                 .position(|&e| tilt < e)
                 .unwrap_or(3);
-            sum[b] += angle(out.normals.data[r * size + col], truth);
+            sum[b] += angle_deg(out.normals.data[r * size + col], truth);
             n[b] += 1;
         }
     }

@@ -5,6 +5,7 @@
 //! project's own renderer (`synth`), scored against the true normals by band of the true
 //! normal's angle from the view axis.
 
+mod common;
 use photostereo::image::{ImageStack, Mask, NormalMap};
 use photostereo::io::{self, LoadOptions};
 use photostereo::lut::{self, BuildOptions, Options, Output, Table};
@@ -12,13 +13,10 @@ use photostereo::progress::NoProgress;
 use photostereo::sphere::{self, Circle, DetectOptions};
 use photostereo::synth::{self, Material, SceneOptions};
 
-mod lut_score;
-mod shared_data;
-
-use lut_score::{print, score, Score};
+use common::lut_score::{print, score, Score};
 
 fn dataset(test: &str, rel: &str) -> Option<io::Dataset> {
-    let dir = shared_data::path(test, &format!("data/{rel}"))?;
+    let dir = common::shared::path(test, &format!("data/{rel}"))?;
     Some(io::load_dataset(&dir, &LoadOptions::default()).unwrap())
 }
 

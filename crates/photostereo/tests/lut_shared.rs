@@ -6,19 +6,17 @@
 //! rank correlation (Spearman) between confidence and error; each skips with a note
 //! when the shared data is absent.
 
+mod common;
 use photostereo::image::{ImageStack, Mask, NormalMap};
 use photostereo::io::{self, LoadOptions};
 use photostereo::lut::{self, BuildOptions, Method, Options, Output, Table};
 use photostereo::progress::NoProgress;
 use photostereo::sphere::{self, Circle, DetectOptions};
 
-mod lut_score;
-mod shared_data;
-
-use lut_score::{print, score, Score};
+use common::lut_score::{print, score, Score};
 
 fn dataset(test: &str, rel: &str) -> Option<io::Dataset> {
-    let dir = shared_data::path(test, &format!("data/{rel}"))?;
+    let dir = common::shared::path(test, &format!("data/{rel}"))?;
     Some(io::load_dataset(&dir, &LoadOptions::default()).unwrap())
 }
 
@@ -335,7 +333,7 @@ fn mitsuba_rendered_textured_plastic() {
             "no textured plastic render at {} (see the test's docs to render it)",
             dir.display()
         );
-        shared_data::skip(test, &why, "PHOTOSTEREO_REQUIRE_TEXTURED");
+        common::shared::skip(test, &why, "PHOTOSTEREO_REQUIRE_TEXTURED");
         return;
     }
     let target = io::load_dataset(&dir, &LoadOptions::default()).unwrap();

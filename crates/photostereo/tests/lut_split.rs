@@ -5,7 +5,9 @@
 //! diffuse part carries albedo patches (a checkerboard of 0.45 / 1.0 plus the renderer's
 //! smooth texture), built exactly as diffuse·albedo + specular from two renders.
 
-use photostereo::image::{dot3, ImageStack, Mask, NormalMap};
+mod common;
+use common::angle_deg;
+use photostereo::image::{ImageStack, Mask, NormalMap};
 use photostereo::lut::{self, BuildOptions, Options, Table};
 use photostereo::progress::NoProgress;
 use photostereo::sphere::Circle;
@@ -79,16 +81,12 @@ fn textured_target(kd: f32, ks: f32, roughness: f32) -> (ImageStack, Mask, Norma
     (stack, full.mask, full.normals)
 }
 
-fn angle(a: [f32; 3], b: [f32; 3]) -> f64 {
-    (dot3(a, b) as f64).clamp(-1.0, 1.0).acos().to_degrees()
-}
-
 /// Mean error over the mask, and over the pixels whose true normal is within 30° of
 /// the view axis.
 fn errors(est: &NormalMap, truth: &NormalMap, mask: &Mask) -> (f64, f64) {
     let (mut all, mut n, mut near, mut m) = (0.0, 0usize, 0.0, 0usize);
     for i in (0..mask.data.len()).filter(|&i| mask.data[i]) {
-        let e = angle(est.data[i], truth.data[i]);
+        let e = angle_deg(est.data[i], truth.data[i]);
         all += e;
         n += 1;
         if truth.data[i][2] >= 30f32.to_radians().cos() {

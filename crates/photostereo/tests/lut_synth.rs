@@ -2,6 +2,8 @@
 //! from a rendered calibration sphere of the same material, targets with exact normals.
 //! Every test prints the figures and the 6-nearest-neighbour inverse-distance baseline.
 
+mod common;
+use common::angle_deg;
 use photostereo::image::{dot3, Mask, NormalMap};
 use photostereo::lut::{self, BuildOptions, Method, Options, Output, Table};
 use photostereo::progress::NoProgress;
@@ -46,16 +48,12 @@ fn table(opts: &SceneOptions, radius: f64, rim: f64) -> Table {
     .unwrap()
 }
 
-fn angle(a: [f32; 3], b: [f32; 3]) -> f64 {
-    (dot3(a, b) as f64).clamp(-1.0, 1.0).acos().to_degrees()
-}
-
 /// Mean angular error over the pixels selected by `keep`.
 fn mean_err(est: &NormalMap, truth: &NormalMap, keep: impl Fn(usize) -> bool) -> f64 {
     let (mut sum, mut n) = (0.0, 0usize);
     for i in 0..truth.data.len() {
         if keep(i) {
-            sum += angle(est.data[i], truth.data[i]);
+            sum += angle_deg(est.data[i], truth.data[i]);
             n += 1;
         }
     }

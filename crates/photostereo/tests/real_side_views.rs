@@ -10,9 +10,7 @@
 //! are made); `PHOTOSTEREO_SIDE_DEBUG=DIR` writes the weighted and the unweighted
 //! meshes seen at 90° and 60° into DIR.
 
-#[path = "shared_data/mod.rs"]
-mod shared_data;
-
+mod common;
 use std::path::Path;
 
 use photostereo::integrate;
@@ -169,7 +167,7 @@ fn integrator(out: &pipeline::Output) -> String {
 #[test]
 fn real_objects_side_views_and_outline_steps() {
     let test = "real_objects_side_views_and_outline_steps";
-    let Some(real) = shared_data::path(test, "data/real") else {
+    let Some(real) = common::shared::path(test, "data/real") else {
         return;
     };
     let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs");

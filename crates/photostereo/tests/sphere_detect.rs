@@ -1,14 +1,13 @@
 //! Sphere detection against known circles: noise and attached shadows, a grey
 //! background, outlier blobs, corrupted edge points, bad input, the real chrome sphere.
 
-mod shared_data;
-mod sphere_support;
-
+mod common;
+use common::sphere_scene::{add_blobs, render, ring_lights, Scene};
+use common::Rng;
 use photostereo::error::{Error, Setting};
 use photostereo::image::{Image, ImageStack};
 use photostereo::sphere::fit::{fit_robust, FitOptions};
 use photostereo::sphere::{detect, overlay, Circle, DetectOptions};
-use sphere_support::{add_blobs, render, ring_lights, Rng, Scene};
 
 fn errors(found: &Circle, truth: &Circle) -> (f64, f64) {
     let centre = ((found.cx - truth.cx).powi(2) + (found.cy - truth.cy).powi(2)).sqrt();
@@ -309,10 +308,10 @@ fn save_overlay(d: &photostereo::sphere::Detection, name: &str) {
 /// `../shared` is absent.
 #[test]
 fn real_chrome_sphere() {
-    let Some(dir) = shared_data::path("real_chrome_sphere", "data/real/chrome") else {
+    let Some(dir) = common::shared::path("real_chrome_sphere", "data/real/chrome") else {
         return;
     };
-    let stack = sphere_support::load_png_dir(&dir);
+    let stack = common::sphere_scene::load_png_dir(&dir);
     let found = detect(&stack, &DetectOptions::default()).unwrap();
     let c = found.circle;
     println!(

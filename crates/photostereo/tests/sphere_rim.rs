@@ -4,13 +4,12 @@
 //! a shiny ball. Each case compares the rim model (module `sphere::rim`) with the
 //! mid-level crossings of edge points alone, against the exact circle.
 
-mod sphere_common;
-mod sphere_support;
-
+mod common;
+use common::sphere_measure::gaussian_blur;
+use common::sphere_scene::spiral_lights;
+use common::Rng;
 use photostereo::image::{GrayImage, Image, ImageStack};
 use photostereo::sphere::{detect, litarc, Circle, DetectOptions, Detection};
-use sphere_common::gaussian_blur;
-use sphere_support::{spiral_lights, Rng};
 
 /// A scene with the defects switched on or off.
 #[derive(Clone)]

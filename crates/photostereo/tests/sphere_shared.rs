@@ -3,16 +3,14 @@
 //! and the Mitsuba renders of a sphere of radius 100 px. Truth: the circle of the true
 //! normals, fitted by least squares (pixel (r, c) centred at (c + 0.5, r + 0.5)).
 
-mod shared_data;
-mod sphere_common;
-
+mod common;
 use photostereo::io;
 use photostereo::sphere::{check_circle, detect, Circle, DetectOptions};
 use std::path::Path;
 
 /// Least-squares circle of the true normals (all of them): u = cx + R n_x, v = cy − R n_y.
 fn truth_circle(dir: &Path) -> Circle {
-    sphere_common::normals_circle(dir, -1.0).0
+    common::sphere_measure::normals_circle(dir, -1.0).0
 }
 
 /// The rim model's residual with the rim held on `truth` over that with the rim free,
@@ -108,7 +106,8 @@ fn measure(dir: &Path, truth: &Circle) -> (f64, f64, f64) {
 /// spread, 0.19 px) says the rim is ambiguous.
 #[test]
 fn diligent_ball_circle_measured() {
-    let Some(dir) = shared_data::path("diligent_ball_circle_measured", "data/real/diligent_ball")
+    let Some(dir) =
+        common::shared::path("diligent_ball_circle_measured", "data/real/diligent_ball")
     else {
         return;
     };
@@ -127,7 +126,8 @@ fn diligent_ball_circle_measured() {
 #[test]
 fn mitsuba_spheres_within_0_1_px() {
     for case in ["calib_diffuse", "calib_roughplastic"] {
-        let Some(dir) = shared_data::path("mitsuba_spheres_within_0_1_px", &format!("data/{case}"))
+        let Some(dir) =
+            common::shared::path("mitsuba_spheres_within_0_1_px", &format!("data/{case}"))
         else {
             return;
         };
@@ -155,7 +155,7 @@ fn mitsuba_spheres_within_0_1_px() {
 /// on the green channel, 16 sectors).
 #[test]
 fn diligent_ball_rim_is_not_on_the_true_circle() {
-    let Some(dir) = shared_data::path(
+    let Some(dir) = common::shared::path(
         "diligent_ball_rim_is_not_on_the_true_circle",
         "data/real/diligent_ball",
     ) else {

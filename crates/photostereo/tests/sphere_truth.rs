@@ -18,13 +18,12 @@
 //! * the specular highlights (calibrated lights, mirror direction) put the centre
 //!   0.13 px from the truth's but say nothing firm about the radius (+1.45 px).
 
-mod shared_data;
-mod sphere_common;
-
+mod common;
+use common::solve3;
+use common::sphere_measure::{errors, normals_circle};
 use photostereo::io;
 use photostereo::sphere::photometric::{self, PhotometricOptions};
 use photostereo::sphere::{detect, litarc, Circle, DetectOptions};
-use sphere_common::{errors, normals_circle, solve3};
 
 /// The truth is a model: an exact orthographic sphere of radius 70.7500 px (fit
 /// residual 0.0000 px over the pixels with n_z ≥ 0.05; measured), the mask is exactly
@@ -32,7 +31,7 @@ use sphere_common::{errors, normals_circle, solve3};
 /// beyond the circle with n_z clamped to 0 (measured 70.989).
 #[test]
 fn diligent_truth_circle_is_a_rounded_model() {
-    let Some(dir) = shared_data::path(
+    let Some(dir) = common::shared::path(
         "diligent_truth_circle_is_a_rounded_model",
         "data/real/diligent_ball",
     ) else {
@@ -76,7 +75,7 @@ fn diligent_truth_circle_is_a_rounded_model() {
 fn lit_arcs_on_renders_within_0_1_px() {
     for case in ["calib_diffuse", "calib_roughplastic"] {
         let Some(dir) =
-            shared_data::path("lit_arcs_on_renders_within_0_1_px", &format!("data/{case}"))
+            common::shared::path("lit_arcs_on_renders_within_0_1_px", &format!("data/{case}"))
         else {
             return;
         };
@@ -113,7 +112,7 @@ fn lit_arcs_on_renders_within_0_1_px() {
 /// model on the maximum image (detect: +0.74 px) within 0.03 px, not with the truth.
 #[test]
 fn diligent_ball_lit_arcs_put_the_rim_outside_the_truth() {
-    let Some(dir) = shared_data::path(
+    let Some(dir) = common::shared::path(
         "diligent_ball_lit_arcs_put_the_rim_outside_the_truth",
         "data/real/diligent_ball",
     ) else {
@@ -160,7 +159,8 @@ fn diligent_ball_lit_arcs_put_the_rim_outside_the_truth() {
 /// any error in the lights' elevations); rms 0.164 px.
 #[test]
 fn diligent_ball_highlights_centre() {
-    let Some(dir) = shared_data::path("diligent_ball_highlights_centre", "data/real/diligent_ball")
+    let Some(dir) =
+        common::shared::path("diligent_ball_highlights_centre", "data/real/diligent_ball")
     else {
         return;
     };
@@ -234,7 +234,7 @@ fn diligent_ball_highlights_centre() {
 #[test]
 fn photometric_circle_on_renders_within_0_1_px() {
     for case in ["calib_diffuse", "calib_roughplastic"] {
-        let Some(dir) = shared_data::path(
+        let Some(dir) = common::shared::path(
             "photometric_circle_on_renders_within_0_1_px",
             &format!("data/{case}"),
         ) else {
@@ -245,7 +245,7 @@ fn photometric_circle_on_renders_within_0_1_px() {
         let lights = data.lights.unwrap().directions;
         let mut stacks = vec![("as rendered", data.stack)];
         if case == "calib_roughplastic" {
-            let degraded = sphere_common::degrade(&stacks[0].1, 0.75, true);
+            let degraded = common::sphere_measure::degrade(&stacks[0].1, 0.75, true);
             stacks.push(("blur σ 0.75 px, 8 bits", degraded));
         }
         for (what, stack) in &stacks {
@@ -275,7 +275,7 @@ fn photometric_circle_on_renders_within_0_1_px() {
 /// truth's radius is not in the photographs' photometry either.
 #[test]
 fn diligent_ball_photometric_circle() {
-    let Some(dir) = shared_data::path(
+    let Some(dir) = common::shared::path(
         "diligent_ball_photometric_circle",
         "data/real/diligent_ball",
     ) else {

@@ -1,7 +1,12 @@
-//! Helpers shared by the CLI's integration tests: a scratch directory per test and the
-//! `photostereo` executable run with a transcript (shown by `cargo test -- --nocapture`).
+//! Helpers shared by the CLI's integration tests: a scratch directory per test, the
+//! `photostereo` executable run with a transcript (shown by `cargo test -- --nocapture`),
+//! the angle between normals and the shared data ([`shared`]).
 //! Each test file includes this with `mod common;` and uses only part of it.
 #![allow(dead_code)]
+
+/// The project's shared data and the skips CI counts (the library's test helper).
+#[path = "../../../photostereo/tests/common/shared.rs"]
+pub mod shared;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -38,4 +43,10 @@ pub fn photostereo_ok(args: &[&str]) -> String {
 /// A path as a command-line argument (the tests' paths are UTF-8).
 pub fn s(p: &Path) -> &str {
     p.to_str().expect("test paths are UTF-8")
+}
+
+/// Angle between two directions (need not be unit), degrees, by the accurate formula
+/// atan2(‖a × b‖, a · b) (`photostereo::eval::angle_deg`).
+pub fn angle_deg(a: [f32; 3], b: [f32; 3]) -> f64 {
+    photostereo::eval::angle_deg(&a, &b)
 }

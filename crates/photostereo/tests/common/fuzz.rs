@@ -1,6 +1,5 @@
 //! Support of the fuzz tests: a capped global allocator, byte mutations, and valid
 //! files to mutate (an `.npy`, a small lookup table, a dataset, PNG and TIFF images).
-#![allow(dead_code)]
 
 use photostereo::image::{ImageStack, Lights, Mask};
 use photostereo::io::{self, limits};
@@ -21,9 +20,6 @@ use std::sync::OnceLock;
 /// the calling thread, or over the decoder limit on threads without a cap (rayon
 /// workers decoding images).
 pub struct Capped;
-
-#[global_allocator]
-static ALLOCATOR: Capped = Capped;
 
 static REFUSED: AtomicUsize = AtomicUsize::new(0);
 

@@ -1,5 +1,4 @@
 //! Small analytic height fields shared by the interreflection tests.
-#![allow(dead_code)]
 
 use photostereo::image::{dot3, gradient_to_normal, pixel_to_xy, DepthMap, GrayImage, ImageStack};
 use photostereo::NormalMap;

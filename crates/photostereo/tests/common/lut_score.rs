@@ -1,9 +1,9 @@
 //! Scoring of lookup outputs against true normals, shared by `lut_shared.rs` and
 //! `lut_scenes.rs`: mean angular error over the mask, by band of the true normal's angle
 //! from the view axis, and Spearman's rank correlation between confidence and error.
-#![allow(dead_code)]
 
-use photostereo::image::{dot3, Mask, NormalMap};
+use super::angle_deg;
+use photostereo::image::{Mask, NormalMap};
 use photostereo::lut::Output;
 
 /// Upper edges of the bands of true normal angle (degrees).
@@ -21,10 +21,6 @@ pub struct Score {
     pub spearman: f64,
 }
 
-pub fn angle(a: [f32; 3], b: [f32; 3]) -> f64 {
-    (dot3(a, b) as f64).clamp(-1.0, 1.0).acos().to_degrees()
-}
-
 pub fn score(out: &Output, truth: &NormalMap, mask: &Mask) -> Score {
     let (mut sums, mut counts) = ([0.0; 4], [0usize; 4]);
     let (mut errs, mut conf) = (Vec::new(), Vec::new());
@@ -33,7 +29,7 @@ pub fn score(out: &Output, truth: &NormalMap, mask: &Mask) -> Score {
             continue;
         }
         let t = truth.data[i];
-        let e = angle(out.normals.data[i], t);
+        let e = angle_deg(out.normals.data[i], t);
         let tilt = (t[2] as f64).clamp(-1.0, 1.0).acos().to_degrees();
         let b = BANDS.iter().position(|&hi| tilt < hi).unwrap_or(3);
         sums[b] += e;

@@ -1,5 +1,5 @@
 //! The project's shared data and skips that CI can see; used by every test that reads
-//! `../shared` (the CLI crate's tests include this file with `#[path]`).
+//! `../shared` (the CLI crate's `tests/common` includes this file with `#[path]`).
 //!
 //! * The shared folder is `$PHOTOSTEREO_SHARED`, else `../shared` beside the repository,
 //!   located from the crate's manifest directory (in a worktree `../shared` is a link).
@@ -9,7 +9,6 @@
 //!   (set by `.ci/run`) an absent folder is a failure instead.
 //! * Folder present but a dataset or file in it missing or unreadable: a failure, never
 //!   a skip (the data are broken, not absent).
-#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 

@@ -1,8 +1,8 @@
 //! Test-only helpers shared by the tests of the sphere's circle on `../shared` data
 //! (`sphere_shared`, `sphere_truth`): the circle of a dataset's true normals, circle
 //! errors, a Gaussian blur and 8-bit quantisation of image stacks.
-#![allow(dead_code)]
 
+use super::solve3;
 use photostereo::image::{GrayImage, Image, ImageStack};
 use photostereo::io;
 use photostereo::sphere::Circle;
@@ -48,23 +48,6 @@ pub fn normals_circle(dir: &Path, min_nz: f64) -> (Circle, f64, usize) {
         })
         .sum();
     (c, (ss / (2 * pts.len()) as f64).sqrt(), pts.len())
-}
-
-/// Solve a 3 × 3 system by Cramer's rule.
-pub fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> [f64; 3] {
-    let det = |m: [[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let d = det(a);
-    std::array::from_fn(|k| {
-        let mut m = a;
-        for row in m.iter_mut().zip(b) {
-            row.0[k] = row.1;
-        }
-        det(m) / d
-    })
 }
 
 /// Centre distance and (signed) radius difference of `c` from `t` (px).

@@ -1,8 +1,8 @@
 //! Test-only sphere raster shared by the sphere, Lambertian and light-calibration
 //! tests: an area-sampled (supersampled) sphere under distant lights, optionally with
 //! a Blinn–Phong specular lobe, a grey background and Gaussian noise.
-#![allow(dead_code)]
 
+use super::Rng;
 use photostereo::image::{GrayImage, Image, ImageStack};
 use photostereo::sphere::Circle;
 
@@ -147,33 +147,6 @@ pub fn add_blobs(stack: &mut ImageStack, centres: &[(f64, f64)], rad: f64, v: f3
             }
         }
     }
-}
-
-pub struct Rng(pub u64);
-
-impl Rng {
-    pub fn next_f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    pub fn gauss(&mut self) -> f32 {
-        let u1 = self.next_f64().max(1e-300);
-        let u2 = self.next_f64();
-        ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32
-    }
-}
-
-/// Angle between two directions in degrees.
-pub fn angle_deg(a: [f32; 3], b: [f32; 3]) -> f64 {
-    let d = (a[0] as f64 * b[0] as f64 + a[1] as f64 * b[1] as f64 + a[2] as f64 * b[2] as f64)
-        / ((a.iter().map(|v| (*v as f64).powi(2)).sum::<f64>()
-            * b.iter().map(|v| (*v as f64).powi(2)).sum::<f64>())
-        .sqrt());
-    d.clamp(-1.0, 1.0).acos().to_degrees()
 }
 
 /// Load a directory of 8/16-bit PNGs listed in `filenames.txt` as a grey stack in [0, 1].

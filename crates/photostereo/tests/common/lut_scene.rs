@@ -1,7 +1,7 @@
 //! Analytic scenes for the lookup-table tests (no dependence on the renderer):
 //! a calibration sphere and a smooth target shaded by the same closed-form BRDF.
-#![allow(dead_code)]
 
+use super::{angle_deg, Rng};
 use photostereo::image::{dot3, normalize, ImageStack, Mask, NormalMap};
 use photostereo::sphere::Circle;
 
@@ -100,11 +100,6 @@ pub fn bumps(
     (stack, Mask::full(size, size), normals)
 }
 
-/// Angle in degrees between two unit vectors.
-pub fn angle_deg(a: [f32; 3], b: [f32; 3]) -> f64 {
-    (dot3(a, b) as f64).clamp(-1.0, 1.0).acos().to_degrees()
-}
-
 /// Mean and median angular error over the mask.
 pub fn errors(est: &NormalMap, truth: &NormalMap, mask: &Mask) -> (f64, f64) {
     let mut e: Vec<f64> = (0..mask.data.len())
@@ -118,18 +113,8 @@ pub fn errors(est: &NormalMap, truth: &NormalMap, mask: &Mask) -> (f64, f64) {
 
 /// Deterministic Gaussian noise of standard deviation `sigma` added to every sample.
 pub fn add_noise(stack: &mut ImageStack, sigma: f32, seed: u64) {
-    let mut state = seed
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    let mut uniform = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    };
+    let mut rng = Rng(seed);
     for v in stack.data.iter_mut() {
-        let (u1, u2) = (uniform(), uniform());
-        let g = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
-        *v += sigma * g as f32;
+        *v += sigma * rng.gauss();
     }
 }
