@@ -1,5 +1,5 @@
 //! The shared real photographs and Mitsuba renders load. Each test is skipped (visibly:
-//! see `shared_data`) when the shared data folder is absent, and fails when it is there
+//! see `common::shared`) when the shared data folder is absent, and fails when it is there
 //! but a dataset in it is missing or unreadable.
 
 mod common;

@@ -5,8 +5,8 @@
 //! resolutions.
 
 mod common;
-use common::lut_scene::*;
 use common::angle_deg;
+use common::lut_scene::*;
 use photostereo::image::{normalize, ImageStack, Mask, NormalMap};
 use photostereo::lut::{self, BuildOptions, Method, Options, Output, Table};
 use photostereo::progress::NoProgress;
