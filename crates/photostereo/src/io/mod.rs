@@ -58,6 +58,7 @@ pub mod export;
 pub mod hdr;
 pub mod lights_file;
 pub mod limits;
+pub mod memtrace;
 pub mod npy;
 pub mod raster;
 pub mod response;
@@ -80,8 +81,8 @@ pub use raster::{
 };
 pub use response::Response;
 pub use run::{
-    dataset_name, previous_run_files, read_ground_truth, read_meta_scale, read_table, remove_files,
-    write_table, RUN_FILES,
+    dataset_name, has_ground_truth, previous_run_files, read_ground_truth, read_meta_scale,
+    read_table, remove_files, write_table, RUN_FILES,
 };
 pub use text_files::{read_intensities, read_lights, write_intensities, write_light_directions};
 

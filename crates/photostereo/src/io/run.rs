@@ -17,6 +17,12 @@ pub fn read_ground_truth(dir: &Path) -> Result<(Option<NormalMap>, Option<DepthM
     Ok((normals, depth))
 }
 
+/// Whether `dir` holds a ground truth that [`read_ground_truth`] would read (a run by
+/// bands reads it only once the normals are made, to keep it out of their peak memory).
+pub fn has_ground_truth(dir: &Path) -> bool {
+    dir.join("normal_gt.npy").is_file() || dir.join("depth_gt.npy").is_file()
+}
+
 /// `65535 / scale` from the dataset's `meta.json` when it has a positive `scale` field
 /// (renders that store radiance × scale in 16-bit PNGs); `None` without the file or field.
 pub fn read_meta_scale(dir: &Path) -> Result<Option<f32>> {

@@ -193,7 +193,6 @@ pub(super) fn run(
             Normals::Lambertian { lights }
         }
     };
-    let (tn, td) = io::read_ground_truth(&inputs.target)?;
     stages.insert(0, ("load".to_string(), t0.elapsed().as_secs_f64()));
     let mut cap = Capture {
         ds,
@@ -204,11 +203,8 @@ pub(super) fn run(
         scale: image_scale.map(|s| s.0),
         whole: None,
     };
-    let truth = Truth {
-        normals: tn,
-        depth: td,
-    };
-    let (job, mut output) = solve(&mut cap, normals, truth, opts, progress)?;
+    crate::io::memtrace::mark("before the stages");
+    let (job, mut output) = solve(&mut cap, normals, &inputs.target, opts, progress)?;
     if let Some((scale, from)) = image_scale {
         output
             .figures
@@ -228,6 +224,7 @@ pub(super) fn run(
         subtitle: subtitle(inputs, opts),
     };
     let written = super::write_outputs_with(out, &titles, &job, &output, &stages, &opts.exports)?;
+    crate::io::memtrace::mark("outputs written");
     Ok(Run {
         output,
         report: written.report,
@@ -235,16 +232,18 @@ pub(super) fn run(
     })
 }
 
-/// The pipeline on the capture: normals by bands, then [`super::finish`]. Returns the
-/// job (its target the decimated images of the thumbnails) and the output.
+/// The pipeline on the capture: normals by bands, then [`super::finish`] with the ground
+/// truth of the `target` folder (read once the normals are made: it is not needed
+/// before, and would add 16 B per pixel to their peak). Returns the job (its target the
+/// decimated images of the thumbnails) and the output.
 fn solve(
     cap: &mut Capture,
     normals: Normals,
-    truth: Truth,
+    target: &Path,
     opts: &Options,
     progress: &dyn Progress,
 ) -> Result<(Job, super::Output)> {
-    let has_truth = truth.normals.is_some() || truth.depth.is_some();
+    let has_truth = io::has_ground_truth(target);
     let total = stages::planned(&normals, false)
         + usize::from(has_truth)
         + usize::from(opts.curvature.is_some());
@@ -287,15 +286,20 @@ fn solve(
             (est, None, Normals::Lambertian { lights })
         }
     };
-    let target = ImageStack {
+    let thumbnails = ImageStack {
         width: w.div_ceil(step),
         height: h.div_ceil(step),
         k,
         data: preview,
         names: file_names(&cap.ds),
     };
+    let (tn, td) = io::read_ground_truth(target)?;
+    let truth = Truth {
+        normals: tn,
+        depth: td,
+    };
     let job = Job {
-        target,
+        target: thumbnails,
         mask: cap.mask.clone(),
         normals,
         truth,
@@ -360,7 +364,8 @@ fn lookup_stages(
     st.run(super::spatial_stage::name(opts), |p| {
         let (noise, censor) = sampler.finish_with_censor();
         let model = (&noise, &censor);
-        let albedo = est.albedo.clone();
+        // taken out of the estimate while the stage borrows both (no second copy)
+        let albedo = est.albedo.take();
         let info = match &opts.spatial {
             None => {
                 let level = opts.lookup.shadow_level;
@@ -392,6 +397,7 @@ fn lookup_stages(
                 adopt(&mut est, noise, sp)
             }
         };
+        est.albedo = albedo;
         est.spatial = Some(info);
         Ok(est)
     })

@@ -34,6 +34,7 @@ impl<'a> Stages<'a> {
         let t0 = Instant::now();
         let out = f(self.progress).map_err(|e| e.context(format!("stage '{name}' failed")))?;
         let dt = t0.elapsed().as_secs_f64();
+        crate::io::memtrace::mark(&format!("stage '{name}'"));
         self.progress.stage(i, total, name, Some(dt));
         self.list.push((name.to_string(), dt));
         Ok(out)

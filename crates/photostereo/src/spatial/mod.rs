@@ -182,16 +182,13 @@ fn solve_from(
     ev: &Evidence,
     mask: &Mask,
     opts: &Options,
-    start: Option<&[[f32; 2]]>,
+    start: Option<Vec<[f32; 2]>>,
 ) -> Result<Output> {
     check(ev, mask, opts)?;
-    let mut b = rhs(&ev.a, &ev.u);
-    for (b, g) in b.iter_mut().zip(&ev.g) {
-        b[0] += g[0];
-        b[1] += g[1];
-    }
-    let (x, levels, its) = quadratic(ev, mask, (&ev.a, &b), opts, start);
-    Ok(finish(ev, mask, &x, &levels, its))
+    let (x, fine, levels, its) = quadratic(ev, mask, opts, start);
+    let out = finish(ev, mask, &x, (&fine, levels), its);
+    crate::io::memtrace::mark("spatial: solution's images made");
+    Ok(out)
 }
 
 /// The spatial stage after a lookup with one `table` (the lookup's `normals` and, with
@@ -285,9 +282,13 @@ pub fn solve_relinearised(
         }
         relinearise(&out.normals, &far, &mut ev)?;
         drop(far);
-        let x0: Vec<[f32; 2]> = out.normals.data.iter().map(|n| [n[0], n[1]]).collect();
+        // the start, per mask pixel in row-major order (the solve's own order)
+        let x0: Vec<[f32; 2]> = (out.normals.data.iter().zip(&mask.data))
+            .filter(|(_, &m)| m)
+            .map(|(n, _)| [n[0], n[1]])
+            .collect();
         drop(out);
-        out = solve_from(&ev, mask, opts, Some(&x0))?;
+        out = solve_from(&ev, mask, opts, Some(x0))?;
         iterations += out.stats.iterations;
     }
     out.stats.iterations = iterations;
@@ -364,123 +365,120 @@ pub fn mean_in(img: &GrayImage, mask: &Mask) -> f64 {
     sum / n.max(1) as f64
 }
 
-/// A u per pixel → A u.
-fn rhs(a: &[[f32; 3]], u: &[[f32; 2]]) -> Vec<[f32; 2]> {
-    a.iter()
-        .zip(u)
-        .map(|(a, u)| [a[0] * u[0] + a[1] * u[1], a[1] * u[0] + a[2] * u[1]])
-        .collect()
-}
-
-/// Solve the quadratic problem with information `a` and right-hand side `b`; returns
-/// the solution, the levels and the iterations.
+/// Solve the quadratic problem of the evidence `ev` (its matches' quadratics, plus its
+/// gradient where it has one); returns the solution per mask pixel (row-major order),
+/// the finest level, the number of levels and the iterations.
 fn quadratic(
     ev: &Evidence,
     mask: &Mask,
-    (a, b): (&[[f32; 3]], &[[f32; 2]]),
     opts: &Options,
-    start: Option<&[[f32; 2]]>,
-) -> (Vec<[f32; 2]>, Vec<Level>, usize) {
+    start: Option<Vec<[f32; 2]>>,
+) -> (Vec<[f32; 2]>, Level, usize, usize) {
     let (w, h) = (ev.width, ev.height);
     let lambda = 1.0 / (opts.smoothness * opts.smoothness);
     let jump2 = opts.jump * opts.jump;
     let known2 = jump2 / 9.0;
-    // variance of each match in normal units (tr A⁻¹), for the discontinuity test
-    let var: Vec<f32> = ev.a.iter().map(|a| trace_inverse(*a)).collect();
     let m = &mask.data;
     let n = m.len();
     let jumps = |i: usize, j: usize| {
         let d = [ev.u[i][0] - ev.u[j][0], ev.u[i][1] - ev.u[j][1]];
         d[0] * d[0] + d[1] * d[1] > jump2
     };
+    // variance of each match in normal units (tr A⁻¹), for the discontinuity test
+    let var = |i: usize| trace_inverse(ev.a[i]);
     // a discontinuity between i and j = i + step: a jump between two well-known pixels,
     // each continuing smoothly on its own side (a lone outlier is no evidence)
     let pair_ok = |i: usize, j: usize, step: usize| {
-        if !(jumps(i, j) && var[i] < known2 && var[j] < known2) {
+        if !(jumps(i, j) && var(i) < known2 && var(j) < known2) {
             return true;
         }
         let before = i >= step && m[i - step] && !jumps(i - step, i);
         let after = j + step < n && m[j + step] && !jumps(j, j + step);
         !(before && after)
     };
-    let (mut a, mut b) = (a.to_vec(), b.to_vec());
-    if let Some(sc) = opts.contour_sigma {
-        for (i, u) in contour::contour_normals(mask) {
-            let (da, db) = contour::prior(u, sc);
-            a[i] = [a[i][0] + da[0], a[i][1] + da[1], a[i][2] + da[2]];
-            b[i] = [b[i][0] + db[0], b[i][1] + db[1]];
+    let contour: Vec<(usize, [f32; 3], [f32; 2])> = match opts.contour_sigma {
+        Some(sc) => contour::contour_normals(mask)
+            .into_iter()
+            .map(|(i, u)| {
+                let (da, db) = contour::prior(u, sc);
+                (i, da, db)
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    let fields = (&ev.a[..], &ev.u[..], &ev.g[..]);
+    let fine = Level::finest((w, h), m, fields, &contour, lambda, pair_ok);
+    drop(contour);
+    crate::io::memtrace::mark("spatial: finest level built");
+    if let Some(mut x) = start {
+        let its = fine.solve(&mut x, opts.iterations);
+        return (x, fine, 1, its);
+    }
+    let mut coarse: Vec<Level> = Vec::new();
+    loop {
+        let last = coarse.last().unwrap_or(&fine);
+        if !solve::has_coarser(last.w, last.h) {
+            break;
         }
+        let next = last.coarser();
+        coarse.push(next);
     }
-    let mut levels = vec![Level::finest((w, h), m, (&a, &b), lambda, pair_ok)];
-    if let Some(x0) = start {
-        let mut x = x0.to_vec();
-        let its = levels[0].solve(&mut x, opts.iterations);
-        return (x, levels, its);
-    }
-    while let Some(next) = levels
-        .last()
-        .filter(|l| solve::has_coarser(l.w, l.h))
-        .map(Level::coarser)
-    {
-        levels.push(next);
-    }
-    let coarsest = &levels[levels.len() - 1];
+    let count = coarse.len() + 1;
+    let coarsest = coarse.last().unwrap_or(&fine);
     let mut x = coarsest.own();
     let mut iterations = coarsest.solve(&mut x, solve::coarse_iterations());
-    for l in (0..levels.len() - 1).rev() {
-        x = levels[l].start_from(&levels[l + 1], &x);
-        iterations += levels[l].solve(&mut x, opts.iterations);
+    while let Some(c) = coarse.pop() {
+        // the coarser levels are dropped as soon as they have started the next one
+        let next = coarse.last().unwrap_or(&fine);
+        x = next.start_from(&c, &x);
+        drop(c);
+        iterations += next.solve(&mut x, opts.iterations);
     }
-    (x, levels, iterations)
+    crate::io::memtrace::mark("spatial: coarse to fine solved");
+    (x, fine, count, iterations)
 }
 
-/// The output images and figures from the solution `x` and the final information `a`.
+/// The output images and figures from the solution `x` (per mask pixel) on the `fine`
+/// level of the `levels` solved.
 fn finish(
     ev: &Evidence,
     mask: &Mask,
     x: &[[f32; 2]],
-    levels: &[Level],
+    (fine, levels): (&Level, usize),
     iterations: usize,
 ) -> Output {
     let a = &ev.a;
     let (w, h) = (ev.width, ev.height);
-    let fine = &levels[0];
-    // (own share, normal, σ_θ) per pixel, in parallel
-    let per: Vec<(f32, [f32; 3], f32)> = (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            if !mask.data[i] {
-                return (0.0, [0.0; 3], 0.0);
+    let mut normals = NormalMap::filled(w, h, [0.0; 3]);
+    let mut own_share = GrayImage::filled(w, h, 0.0);
+    let mut sigma_deg = GrayImage::filled(w, h, 0.0);
+    // (own share, normal, σ_θ) per pixel, rows in parallel; zeros outside the mask
+    normals
+        .data
+        .par_chunks_mut(w)
+        .zip(own_share.data.par_chunks_mut(w))
+        .zip(sigma_deg.data.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(r, ((nrow, srow), grow))| {
+            for c in 0..w {
+                let i = r * w + c;
+                let Some(j) = fine.at(i) else { continue };
+                let n = to_normal(x[j]);
+                nrow[c] = n;
+                srow[c] = fine.own_share((r, c, i, j));
+                grow[c] = angular_sigma_deg([n[0], n[1]], a[i]);
             }
-            let n = to_normal(x[i]);
-            (fine.own_share(i), n, angular_sigma_deg([n[0], n[1]], a[i]))
-        })
-        .collect();
-    fn image<T>(width: usize, height: usize, data: Vec<T>) -> crate::image::Image<T> {
-        crate::image::Image {
-            width,
-            height,
-            data,
-        }
-    }
-    let own_share: GrayImage = image(w, h, per.iter().map(|p| p.0).collect());
-    let normals: NormalMap = image(w, h, per.iter().map(|p| p.1).collect());
-    let sigma_deg: GrayImage = image(w, h, per.iter().map(|p| p.2).collect());
+        });
     let pixels = mask.count();
-    let in_mask = |img: &GrayImage| -> Vec<f32> {
-        img.data
-            .iter()
-            .zip(&mask.data)
-            .filter(|(_, &m)| m)
-            .map(|(v, _)| *v)
-            .collect()
-    };
+    let decided_by_neighbours = (own_share.data.iter().zip(&mask.data))
+        .filter(|(&s, &m)| m && s < 0.5)
+        .count();
     let stats = Stats {
         pixels,
-        decided_by_neighbours: in_mask(&own_share).iter().filter(|&&s| s < 0.5).count(),
-        cut_triples: count_cuts(fine, &mask.data),
+        decided_by_neighbours,
+        cut_triples: fine.cut_triples(),
         kept_own: 0,
-        levels: levels.len(),
+        levels,
         iterations,
         mean_sigma_deg: mean_in(&sigma_deg, mask),
     };
@@ -538,17 +536,4 @@ fn to_normal(u: [f32; 2]) -> [f32; 3] {
         (u[0], u[1])
     };
     [x, y, (1.0 - x * x - y * y).max(0.0).sqrt()]
-}
-
-/// Triples inside the mask that were cut.
-fn count_cuts(level: &Level, mask: &[bool]) -> usize {
-    let w = level.w;
-    (0..level.w * level.h)
-        .filter(|&i| {
-            let (r, c) = (i / w, i % w);
-            let h_cut = c > 0 && c + 1 < w && mask[i - 1] && mask[i] && mask[i + 1];
-            let v_cut = r > 0 && r + 1 < level.h && mask[i - w] && mask[i] && mask[i + w];
-            (h_cut && level.wh[i] == 0.0) || (v_cut && level.wv[i] == 0.0)
-        })
-        .count()
 }

@@ -9,6 +9,13 @@
 //! b_c = Σ A û; λ_c = λ/4 keeps the energy of a smooth field), is solved first, and its
 //! solution, interpolated, starts the finer level, so that wide regions without
 //! evidence are filled in a few iterations per level.
+//!
+//! **Memory**: a level stores its unknowns, information and right-hand side per *mask*
+//! pixel (row-major order), with one index per grid pixel to find neighbours; the
+//! conjugate-gradient loop keeps four vectors (x, r, p, Ap) and evaluates the second
+//! differences and the block-Jacobi preconditioner on the fly. On a 4096² capture whose
+//! mask covers 58% of the image this is what brought the run's peak under the issue 26
+//! budget (docs/benchmarks.md, "Big captures").
 
 use rayon::prelude::*;
 
@@ -21,254 +28,312 @@ const TOLERANCE: f64 = 1e-5;
 /// Ridge (× λ) that pulls every pixel towards its own match (keeps the system definite
 /// where no pixel carries evidence).
 const RIDGE: f32 = 1e-3;
+/// Index of a grid pixel outside the mask.
+const NONE: u32 = u32::MAX;
+/// Bit of [`Level::tri`]: the row triple centred at the pixel is in the prior.
+const ROW: u8 = 1;
+/// Bit of [`Level::tri`]: the column triple centred at the pixel is in the prior.
+const COL: u8 = 2;
 
-/// One level of the problem (dense arrays over its grid, zero outside the mask).
+/// Information A, matches û and gradient g (empty: zero) of the evidence over the grid.
+pub(crate) type Fields<'a> = (&'a [[f32; 3]], &'a [[f32; 2]], &'a [[f32; 2]]);
+
+/// One level of the problem: arrays over its mask pixels in row-major order.
 #[derive(Clone, Debug)]
 pub(crate) struct Level {
     pub w: usize,
     pub h: usize,
-    pub mask: Vec<bool>,
+    /// Index among the mask pixels of each grid pixel ([`NONE`] outside the mask).
+    idx: Vec<u32>,
+    /// Index of the first mask pixel of each row (h + 1 entries).
+    starts: Vec<usize>,
     /// Information matrices (A₁₁, A₁₂, A₂₂), ridge included.
     pub a: Vec<[f32; 3]>,
     /// Right-hand side A û.
     pub b: Vec<[f32; 2]>,
-    /// λ·ω of the row triple centred at each pixel (0 where there is none).
-    pub wh: Vec<f32>,
-    /// λ·ω of the column triple centred at each pixel.
-    pub wv: Vec<f32>,
+    /// [`ROW`] and [`COL`]: which triples centred at the pixel carry the prior (weight λ).
+    tri: Vec<u8>,
     /// Prior weight λ of this level.
     pub lambda: f32,
 }
 
+/// The mask pixels' indices of a grid (`idx`, `starts` of [`Level`]).
+fn index(mask: &[bool], w: usize, h: usize) -> (Vec<u32>, Vec<usize>) {
+    let mut idx = vec![NONE; w * h];
+    let mut starts = Vec::with_capacity(h + 1);
+    let mut n = 0usize;
+    for r in 0..h {
+        starts.push(n);
+        for (i, &m) in mask[r * w..(r + 1) * w].iter().enumerate() {
+            if m {
+                idx[r * w + i] = n as u32;
+                n += 1;
+            }
+        }
+    }
+    starts.push(n);
+    (idx, starts)
+}
+
 impl Level {
-    /// The finest level from the evidence; `pair_ok(i, j)` says whether neighbours i
-    /// and j may be smoothed together (no evidence of a discontinuity between them).
+    /// Number of mask pixels.
+    pub fn len(&self) -> usize {
+        self.starts[self.h]
+    }
+
+    /// Index among the mask pixels of grid pixel `i`, if in the mask.
+    pub fn at(&self, i: usize) -> Option<usize> {
+        let j = self.idx[i];
+        (j != NONE).then_some(j as usize)
+    }
+
+    /// `out[j] = f(row, column, grid index, j)` for every mask pixel j, rows in parallel.
+    pub fn each<T: Send>(&self, out: &mut [T], f: impl Fn(usize, usize, usize, usize) -> T + Sync) {
+        let mut rows: Vec<&mut [T]> = Vec::with_capacity(self.h);
+        let mut rest = out;
+        for r in 0..self.h {
+            let (row, more) = rest.split_at_mut(self.starts[r + 1] - self.starts[r]);
+            rows.push(row);
+            rest = more;
+        }
+        let w = self.w;
+        rows.into_par_iter().enumerate().for_each(|(r, row)| {
+            let mut k = 0;
+            for c in 0..w {
+                let i = r * w + c;
+                if let Some(j) = self.at(i) {
+                    row[k] = f(r, c, i, j);
+                    k += 1;
+                }
+            }
+        });
+    }
+
+    /// The finest level from the evidence: information `a`, matches `u` and gradient
+    /// `g` (empty: zero) over the grid, `extra` (grid index, ΔA, Δb) added to a pixel's
+    /// cost (the contour prior); `pair_ok(i, j, step)` says whether neighbours i and
+    /// j = i + step may be smoothed together (no evidence of a discontinuity).
     pub fn finest(
         (w, h): (usize, usize),
         mask: &[bool],
-        (a, b): (&[[f32; 3]], &[[f32; 2]]),
+        (a, u, g): Fields,
+        extra: &[(usize, [f32; 3], [f32; 2])],
         lambda: f32,
         pair_ok: impl Fn(usize, usize, usize) -> bool + Sync,
     ) -> Level {
-        let ridge = RIDGE * lambda;
-        let mut a: Vec<[f32; 3]> = a.to_vec();
-        let mut b: Vec<[f32; 2]> = b.to_vec();
-        for ((a, b), &m) in a.iter_mut().zip(b.iter_mut()).zip(mask) {
-            if m {
-                // the ridge pulls towards the pixel's own solution A⁻¹b
-                let own = own_solution(*a, *b);
-                *a = [a[0] + ridge, a[1], a[2] + ridge];
-                *b = [b[0] + ridge * own[0], b[1] + ridge * own[1]];
-            } else {
-                *a = [0.0; 3];
-                *b = [0.0; 2];
-            }
-        }
-        let triple = |i: usize, step: usize| -> f32 {
-            let ok = mask[i - step] && mask[i] && mask[i + step];
-            if ok && pair_ok(i - step, i, step) && pair_ok(i, i + step, step) {
-                lambda
-            } else {
-                0.0
-            }
-        };
-        let mut wh = vec![0.0f32; w * h];
-        let mut wv = vec![0.0f32; w * h];
-        wh.par_chunks_mut(w)
-            .zip(wv.par_chunks_mut(w))
-            .enumerate()
-            .for_each(|(r, (hrow, vrow))| {
-                for c in 0..w {
-                    let i = r * w + c;
-                    if c > 0 && c + 1 < w {
-                        hrow[c] = triple(i, 1);
-                    }
-                    if r > 0 && r + 1 < h {
-                        vrow[c] = triple(i, w);
-                    }
-                }
-            });
-        Level {
+        let (idx, starts) = index(mask, w, h);
+        let n = starts[h];
+        let mut l = Level {
             w,
             h,
-            mask: mask.to_vec(),
-            a,
-            b,
-            wh,
-            wv,
+            idx,
+            starts,
+            a: vec![[0.0; 3]; n],
+            b: vec![[0.0; 2]; n],
+            tri: vec![0; n],
             lambda,
+        };
+        let mut ab = vec![([0.0f32; 3], [0.0f32; 2]); n];
+        l.each(&mut ab, |_, _, i, _| {
+            let (a, u) = (a[i], u[i]);
+            let mut b = [a[0] * u[0] + a[1] * u[1], a[1] * u[0] + a[2] * u[1]];
+            if let Some(g) = g.get(i) {
+                b = [b[0] + g[0], b[1] + g[1]];
+            }
+            (a, b)
+        });
+        for &(i, da, db) in extra {
+            if let Some(j) = l.at(i) {
+                let (a, b) = &mut ab[j];
+                *a = [a[0] + da[0], a[1] + da[1], a[2] + da[2]];
+                *b = [b[0] + db[0], b[1] + db[1]];
+            }
         }
+        // the ridge pulls towards the pixel's own solution A⁻¹b
+        let ridge = RIDGE * lambda;
+        for ((dst_a, dst_b), (a, b)) in l.a.iter_mut().zip(l.b.iter_mut()).zip(ab) {
+            let own = own_solution(a, b);
+            *dst_a = [a[0] + ridge, a[1], a[2] + ridge];
+            *dst_b = [b[0] + ridge * own[0], b[1] + ridge * own[1]];
+        }
+        let triple = |i: usize, step: usize| -> bool {
+            mask[i - step]
+                && mask[i + step]
+                && pair_ok(i - step, i, step)
+                && pair_ok(i, i + step, step)
+        };
+        let mut tri = vec![0u8; n];
+        l.each(&mut tri, |r, c, i, _| {
+            let row = c > 0 && c + 1 < w && triple(i, 1);
+            let col = r > 0 && r + 1 < h && triple(i, w);
+            u8::from(row) * ROW + u8::from(col) * COL
+        });
+        l.tri = tri;
+        l
+    }
+
+    /// Whether the row (`bit` [`ROW`]) or column triple centred at grid pixel `i` is in
+    /// the prior (false outside the mask).
+    fn has(&self, i: usize, bit: u8) -> bool {
+        self.at(i).is_some_and(|j| self.tri[j] & bit != 0)
     }
 
     /// The next coarser level (2×2 pixels → 1).
     pub fn coarser(&self) -> Level {
         let (w, h) = (self.w.div_ceil(2), self.h.div_ceil(2));
+        let coarse_of = |i: usize| (i / self.w / 2) * w + (i % self.w) / 2;
         let mut mask = vec![false; w * h];
-        let mut a = vec![[0.0f32; 3]; w * h];
-        let mut b = vec![[0.0f32; 2]; w * h];
+        for i in (0..self.w * self.h).filter(|&i| self.idx[i] != NONE) {
+            mask[coarse_of(i)] = true;
+        }
+        let (idx, starts) = index(&mask, w, h);
+        let n = starts[h];
+        let mut a = vec![[0.0f32; 3]; n];
+        let mut b = vec![[0.0f32; 2]; n];
         // a coarse triple is cut when any fine triple inside its centre pixel is cut
-        let mut cut_h = vec![false; w * h];
-        let mut cut_v = vec![false; w * h];
+        let mut cut = vec![0u8; n];
         for r in 0..self.h {
             for c in 0..self.w {
-                let (i, j) = (r * self.w + c, (r / 2) * w + c / 2);
-                if !self.mask[i] {
-                    continue;
-                }
-                mask[j] = true;
-                for (dst, src) in a[j].iter_mut().zip(self.a[i]) {
+                let i = r * self.w + c;
+                let Some(fj) = self.at(i) else { continue };
+                let j = idx[coarse_of(i)] as usize;
+                for (dst, src) in a[j].iter_mut().zip(self.a[fj]) {
                     *dst += src;
                 }
-                b[j][0] += self.b[i][0];
-                b[j][1] += self.b[i][1];
-                let interior_h = c > 0 && c + 1 < self.w && self.mask[i - 1] && self.mask[i + 1];
+                b[j][0] += self.b[fj][0];
+                b[j][1] += self.b[fj][1];
+                let in_mask = |i: usize| self.idx[i] != NONE;
+                let interior_h = c > 0 && c + 1 < self.w && in_mask(i - 1) && in_mask(i + 1);
                 let interior_v =
-                    r > 0 && r + 1 < self.h && self.mask[i - self.w] && self.mask[i + self.w];
-                cut_h[j] |= interior_h && self.wh[i] == 0.0;
-                cut_v[j] |= interior_v && self.wv[i] == 0.0;
-            }
-        }
-        let lambda = self.lambda / 4.0;
-        let mut wh = vec![0.0f32; w * h];
-        let mut wv = vec![0.0f32; w * h];
-        for r in 0..h {
-            for c in 0..w {
-                let i = r * w + c;
-                if c > 0 && c + 1 < w && mask[i - 1] && mask[i] && mask[i + 1] && !cut_h[i] {
-                    wh[i] = lambda;
+                    r > 0 && r + 1 < self.h && in_mask(i - self.w) && in_mask(i + self.w);
+                if interior_h && self.tri[fj] & ROW == 0 {
+                    cut[j] |= ROW;
                 }
-                if r > 0 && r + 1 < h && mask[i - w] && mask[i] && mask[i + w] && !cut_v[i] {
-                    wv[i] = lambda;
+                if interior_v && self.tri[fj] & COL == 0 {
+                    cut[j] |= COL;
                 }
             }
         }
-        Level {
+        let mut l = Level {
             w,
             h,
-            mask,
+            idx,
+            starts,
             a,
             b,
-            wh,
-            wv,
-            lambda,
-        }
+            tri: Vec::new(),
+            lambda: self.lambda / 4.0,
+        };
+        let mut tri = vec![0u8; n];
+        l.each(&mut tri, |r, c, i, j| {
+            let row = c > 0 && c + 1 < w && mask[i - 1] && mask[i + 1];
+            let col = r > 0 && r + 1 < h && mask[i - w] && mask[i + w];
+            (u8::from(row) * ROW + u8::from(col) * COL) & !cut[j]
+        });
+        l.tri = tri;
+        l
     }
 
-    /// Prior's diagonal at pixel i: Σ over the triples through i of coefficient² · λω.
-    fn prior_diag(&self, i: usize) -> f32 {
-        let (w, r, c) = (self.w, i / self.w, i % self.w);
-        let mut d = 4.0 * (self.wh[i] + self.wv[i]);
+    /// Prior's diagonal at mask pixel j (grid pixel i at row r, column c): Σ over the
+    /// triples through it of coefficient² · λ.
+    fn prior_diag(&self, (r, c, i, j): (usize, usize, usize, usize)) -> f32 {
+        let (w, l) = (self.w, self.lambda);
+        let on = |b: bool| if b { l } else { 0.0 };
+        let mut d = 4.0 * (on(self.tri[j] & ROW != 0) + on(self.tri[j] & COL != 0));
         if c > 0 {
-            d += self.wh[i - 1];
+            d += on(self.has(i - 1, ROW));
         }
         if c + 1 < w {
-            d += self.wh[i + 1];
+            d += on(self.has(i + 1, ROW));
         }
         if r > 0 {
-            d += self.wv[i - w];
+            d += on(self.has(i - w, COL));
         }
         if r + 1 < self.h {
-            d += self.wv[i + w];
+            d += on(self.has(i + w, COL));
         }
         d
     }
 
-    /// Share of pixel i's own data in its solution ([`leverage`] of its information).
-    pub fn own_share(&self, i: usize) -> f32 {
-        if self.prior_diag(i) == 0.0 {
+    /// Share of mask pixel j's own data in its solution ([`leverage`] of its
+    /// information); `at` = (row, column, grid index, j).
+    pub fn own_share(&self, at: (usize, usize, usize, usize)) -> f32 {
+        if self.prior_diag(at) == 0.0 {
             return 1.0;
         }
-        leverage(0.5 * (self.a[i][0] + self.a[i][2]) / self.lambda)
+        let a = self.a[at.3];
+        leverage(0.5 * (a[0] + a[2]) / self.lambda)
     }
 
-    /// y = (A + λDᵀΩD) x, with `s` (two buffers) as scratch for the second differences.
-    fn apply(&self, x: &[[f32; 2]], s: &mut [Vec<[f32; 2]>; 2], y: &mut [[f32; 2]]) {
+    /// λ × the second difference of `x` along the row (`bit` [`ROW`], neighbours j ± 1:
+    /// a row triple's pixels are consecutive mask pixels) or the column centred at mask
+    /// pixel j (grid pixel i); zero where that triple is not in the prior.
+    fn second_at(&self, x: &[[f32; 2]], i: usize, j: usize, bit: u8) -> [f32; 2] {
+        if self.tri[j] & bit == 0 {
+            return [0.0; 2];
+        }
+        if bit == ROW {
+            second(x[j - 1], x[j], x[j + 1], self.lambda)
+        } else {
+            let (up, down) = (self.idx[i - self.w] as usize, self.idx[i + self.w] as usize);
+            second(x[up], x[j], x[down], self.lambda)
+        }
+    }
+
+    /// y = (A + λDᵀΩD) x.
+    fn apply(&self, x: &[[f32; 2]], y: &mut [[f32; 2]]) {
         let w = self.w;
-        let [sh, sv] = s;
-        sh.par_chunks_mut(w)
-            .zip(sv.par_chunks_mut(w))
-            .enumerate()
-            .for_each(|(r, (hrow, vrow))| {
-                for c in 0..w {
-                    let i = r * w + c;
-                    let (lh, lv) = (self.wh[i], self.wv[i]);
-                    hrow[c] = if lh > 0.0 {
-                        second(x[i - 1], x[i], x[i + 1], lh)
-                    } else {
-                        [0.0; 2]
-                    };
-                    vrow[c] = if lv > 0.0 {
-                        second(x[i - w], x[i], x[i + w], lv)
-                    } else {
-                        [0.0; 2]
-                    };
-                }
-            });
-        let (sh, sv) = (&s[0], &s[1]);
-        y.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
-            for (c, out) in row.iter_mut().enumerate() {
-                let i = r * w + c;
-                if !self.mask[i] {
-                    *out = [0.0; 2];
-                    continue;
-                }
-                let a = self.a[i];
-                let mut v = [
-                    a[0] * x[i][0] + a[1] * x[i][1] - 2.0 * (sh[i][0] + sv[i][0]),
-                    a[1] * x[i][0] + a[2] * x[i][1] - 2.0 * (sh[i][1] + sv[i][1]),
-                ];
-                let mut addv = |s: [f32; 2]| {
+        self.each(y, |r, c, i, j| {
+            let (sh, sv) = (self.second_at(x, i, j, ROW), self.second_at(x, i, j, COL));
+            let a = self.a[j];
+            let mut v = [
+                a[0] * x[j][0] + a[1] * x[j][1] - 2.0 * (sh[0] + sv[0]),
+                a[1] * x[j][0] + a[2] * x[j][1] - 2.0 * (sh[1] + sv[1]),
+            ];
+            let mut add = |i: usize, bit: u8| {
+                if let Some(k) = self.at(i) {
+                    let s = self.second_at(x, i, k, bit);
                     v[0] += s[0];
                     v[1] += s[1];
-                };
-                if c > 0 {
-                    addv(sh[i - 1]);
                 }
-                if c + 1 < w {
-                    addv(sh[i + 1]);
-                }
-                if r > 0 {
-                    addv(sv[i - w]);
-                }
-                if r + 1 < self.h {
-                    addv(sv[i + w]);
-                }
-                *out = v;
+            };
+            if c > 0 {
+                add(i - 1, ROW);
             }
+            if c + 1 < w {
+                add(i + 1, ROW);
+            }
+            if r > 0 {
+                add(i - w, COL);
+            }
+            if r + 1 < self.h {
+                add(i + w, COL);
+            }
+            v
         });
     }
 
-    /// Inverse of the 2×2 block-diagonal preconditioner at each pixel.
-    fn preconditioner(&self) -> Vec<[f32; 3]> {
-        (0..self.w * self.h)
-            .into_par_iter()
-            .map(|i| {
-                if !self.mask[i] {
-                    return [0.0; 3];
-                }
-                let d = self.prior_diag(i);
-                let (m11, m12, m22) = (
-                    (self.a[i][0] + d) as f64,
-                    self.a[i][1] as f64,
-                    (self.a[i][2] + d) as f64,
-                );
-                let det = m11 * m22 - m12 * m12;
-                if det > 0.0 {
-                    [(m22 / det) as f32, (-m12 / det) as f32, (m11 / det) as f32]
-                } else {
-                    [0.0; 3]
-                }
-            })
-            .collect()
+    /// The 2×2 block-diagonal preconditioner's inverse applied to `r` at mask pixel j.
+    fn precondition(&self, at: (usize, usize, usize, usize), r: [f32; 2]) -> [f32; 2] {
+        let d = self.prior_diag(at);
+        let a = self.a[at.3];
+        let (m11, m12, m22) = ((a[0] + d) as f64, a[1] as f64, (a[2] + d) as f64);
+        let det = m11 * m22 - m12 * m12;
+        let m = if det > 0.0 {
+            [(m22 / det) as f32, (-m12 / det) as f32, (m11 / det) as f32]
+        } else {
+            [0.0; 3]
+        };
+        [m[0] * r[0] + m[1] * r[1], m[1] * r[0] + m[2] * r[1]]
     }
 
     /// Preconditioned conjugate gradients from `x` (at most `iterations`); returns the
-    /// iterations run.
+    /// iterations run. The preconditioned residual z is not stored: it is evaluated
+    /// where it is used (for rᵀz, then for the new direction).
     pub fn solve(&self, x: &mut [[f32; 2]], iterations: usize) -> usize {
-        let n = self.w * self.h;
-        let mut s = [vec![[0.0f32; 2]; n], vec![[0.0f32; 2]; n]];
+        let n = self.len();
         let mut ax = vec![[0.0f32; 2]; n];
-        self.apply(x, &mut s, &mut ax);
+        self.apply(x, &mut ax);
         let mut r: Vec<[f32; 2]> = self
             .b
             .par_iter()
@@ -279,15 +344,14 @@ impl Level {
         if dot(&r, &r).sqrt() / bnorm < TOLERANCE {
             return 0; // converged already (e.g. clean data: every pixel keeps its match)
         }
-        let pre = self.preconditioner();
-        let mut z: Vec<[f32; 2]> = mul2(&pre, &r);
-        let mut p = z.clone();
-        let mut rz = dot(&r, &z);
+        let mut p = vec![[0.0f32; 2]; n];
+        self.each(&mut p, |r0, c, i, j| self.precondition((r0, c, i, j), r[j]));
+        let mut rz = dot(&r, &p);
         for it in 0..iterations {
             if dot(&r, &r).sqrt() / bnorm < TOLERANCE {
                 return it;
             }
-            self.apply(&p, &mut s, &mut ax);
+            self.apply(&p, &mut ax);
             let pap = dot(&p, &ax);
             if pap.is_nan() || pap <= 0.0 {
                 return it;
@@ -302,11 +366,14 @@ impl Level {
                         ri[t] -= alpha * api[t];
                     }
                 });
-            z = mul2(&pre, &r);
-            let rz_new = dot(&r, &z);
+            // z = M⁻¹r into ax (free until the next product), then p = z + βp
+            self.each(&mut ax, |r0, c, i, j| {
+                self.precondition((r0, c, i, j), r[j])
+            });
+            let rz_new = dot(&r, &ax);
             let beta = (rz_new / rz.max(1e-300)) as f32;
             rz = rz_new;
-            p.par_iter_mut().zip(&z).for_each(|(pi, zi)| {
+            p.par_iter_mut().zip(&ax).for_each(|(pi, zi)| {
                 pi[0] = zi[0] + beta * pi[0];
                 pi[1] = zi[1] + beta * pi[1];
             });
@@ -318,35 +385,43 @@ impl Level {
     /// interpolation over the coarse mask pixels), blended with the own match where the
     /// pixel's own information dominates.
     pub fn start_from(&self, coarse: &Level, xc: &[[f32; 2]]) -> Vec<[f32; 2]> {
-        let w = self.w;
-        let mut x = vec![[0.0f32; 2]; w * self.h];
-        x.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
-            for (c, out) in row.iter_mut().enumerate() {
-                let i = r * w + c;
-                if !self.mask[i] {
-                    continue;
-                }
-                let prol = interpolate(coarse, xc, r, c);
-                let a = self.a[i];
-                let d = self.prior_diag(i);
-                let own = own_solution(a, self.b[i]);
-                // weights: own information vs the prior's
-                let (ta, td) = ((a[0] + a[2]) * 0.5, d);
-                let t = if ta + td > 0.0 { ta / (ta + td) } else { 0.0 };
-                *out = [
-                    t * own[0] + (1.0 - t) * prol[0],
-                    t * own[1] + (1.0 - t) * prol[1],
-                ];
-            }
+        let mut x = vec![[0.0f32; 2]; self.len()];
+        self.each(&mut x, |r, c, i, j| {
+            let prol = interpolate(coarse, xc, r, c);
+            let a = self.a[j];
+            let d = self.prior_diag((r, c, i, j));
+            let own = own_solution(a, self.b[j]);
+            // weights: own information vs the prior's
+            let (ta, td) = ((a[0] + a[2]) * 0.5, d);
+            let t = if ta + td > 0.0 { ta / (ta + td) } else { 0.0 };
+            [
+                t * own[0] + (1.0 - t) * prol[0],
+                t * own[1] + (1.0 - t) * prol[1],
+            ]
         });
         x
     }
 
     /// The own matches û = A⁻¹ b (the start of the coarsest level).
     pub fn own(&self) -> Vec<[f32; 2]> {
-        (0..self.w * self.h)
-            .map(|i| own_solution(self.a[i], self.b[i]))
+        self.a
+            .iter()
+            .zip(&self.b)
+            .map(|(a, b)| own_solution(*a, *b))
             .collect()
+    }
+
+    /// Triples inside the mask (all three pixels in it) that were cut.
+    pub fn cut_triples(&self) -> usize {
+        let mut cuts = vec![false; self.len()];
+        let (w, h) = (self.w, self.h);
+        let inside = |i: usize| self.idx[i] != NONE;
+        self.each(&mut cuts, |r, c, i, j| {
+            let h_in = c > 0 && c + 1 < w && inside(i - 1) && inside(i + 1);
+            let v_in = r > 0 && r + 1 < h && inside(i - w) && inside(i + w);
+            (h_in && self.tri[j] & ROW == 0) || (v_in && self.tri[j] & COL == 0)
+        });
+        cuts.iter().filter(|&&c| c).count()
     }
 }
 
@@ -420,19 +495,23 @@ fn interpolate(coarse: &Level, xc: &[[f32; 2]], r: usize, c: usize) -> [f32; 2] 
             if rr < 0 || cc < 0 || rr >= coarse.h as i64 || cc >= coarse.w as i64 {
                 continue;
             }
-            let j = rr as usize * coarse.w + cc as usize;
             let wgt = wy * wx;
-            if coarse.mask[j] && wgt > 0.0 {
-                acc[0] += wgt * xc[j][0];
-                acc[1] += wgt * xc[j][1];
-                wsum += wgt;
+            match coarse.at(rr as usize * coarse.w + cc as usize) {
+                Some(j) if wgt > 0.0 => {
+                    acc[0] += wgt * xc[j][0];
+                    acc[1] += wgt * xc[j][1];
+                    wsum += wgt;
+                }
+                _ => {}
             }
         }
     }
     if wsum > 0.0 {
         [acc[0] / wsum, acc[1] / wsum]
     } else {
-        xc[(r / 2).min(coarse.h - 1) * coarse.w + (c / 2).min(coarse.w - 1)]
+        // the coarse pixel holding (r, c) is in the coarse mask
+        let i = (r / 2).min(coarse.h - 1) * coarse.w + (c / 2).min(coarse.w - 1);
+        coarse.at(i).map_or([0.0; 2], |j| xc[j])
     }
 }
 
@@ -454,11 +533,4 @@ fn dot(a: &[[f32; 2]], b: &[[f32; 2]]) -> f64 {
                 .sum::<f64>()
         })
         .sum()
-}
-
-fn mul2(m: &[[f32; 3]], r: &[[f32; 2]]) -> Vec<[f32; 2]> {
-    m.par_iter()
-        .zip(r)
-        .map(|(m, r)| [m[0] * r[0] + m[1] * r[1], m[1] * r[0] + m[2] * r[1]])
-        .collect()
 }
