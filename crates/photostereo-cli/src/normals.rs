@@ -7,7 +7,8 @@ use anyhow::Context;
 use photostereo::io;
 use photostereo::lambertian;
 use photostereo::lut::{self, Method, Table};
-use photostereo::spatial;
+use photostereo::progress::NoProgress;
+use photostereo::{normals, spatial};
 use photostereo::{GrayImage, Mask, NormalMap};
 use std::path::{Path, PathBuf};
 
@@ -169,28 +170,32 @@ fn lookup_normals(
         split_if_specular: args.normalize && !args.no_split,
         ..lut::Options::default()
     };
-    let opts = lut::options_for(&tables, &asked);
-    if opts.split_specular && !args.split_specular && !global.quiet {
+    let input = normals::Input::Tables(&tables, &asked);
+    let bar = Bar::new(global.quiet);
+    let out = normals::pixelwise(stack, mask, &input, &bar).with_context(|| {
+        let files: Vec<String> = args.luts.iter().map(|p| p.display().to_string()).collect();
+        format!("applying {} to {}", files.join(" + "), args.dir.display())
+    })?;
+    let used = out.lookup_options.as_ref();
+    if used.is_some_and(|o| o.split_specular) && !args.split_specular && !global.quiet {
         println!(
             "--normalize: the table is specular ({:.1}% of its light is not Lambertian): fitting \
              diffuse + specular (as --split-specular; --no-split for normalised matching)",
             100.0 * lut::specular_share(&tables[0])
         );
     }
-    let bar = Bar::new(global.quiet);
-    let out = lut::solve(stack, mask, &tables, &opts, &bar).with_context(|| {
-        let files: Vec<String> = args.luts.iter().map(|p| p.display().to_string()).collect();
-        format!("applying {} to {}", files.join(" + "), args.dir.display())
-    })?;
-    if !global.quiet {
-        let s = &out.stats;
+    if let (Some(s), false) = (&out.lookup, global.quiet) {
         println!(
             "{} pixels: {} with cast-shadowed lights dropped, {} with confidence < 0.5, mean residual {:.5}",
             s.pixels, s.shadowed_pixels, s.low_confidence_pixels, s.mean_residual
         );
     }
-    let (normals, confidence, mut grays) = spatial_stage(args, stack, mask, &tables, &out, global)?;
-    grays.extend([("confidence", confidence), ("residual", out.residual)]);
+    let mut out = normals::spatial_stage(stack, mask, &input, &normals_options(args), out)
+        .context("spatial stage after the lookup")?;
+    say_spatial(&out, mask, global);
+    let mut grays = spatial_grays(&mut out);
+    grays.extend(out.confidence.map(|c| ("confidence", c)));
+    grays.push(("residual", out.residual));
     if let Some(a) = out.albedo {
         grays.push(("albedo", a));
     }
@@ -209,74 +214,47 @@ fn lookup_normals(
     if let Some(sigma) = out.weight_sigma {
         grays.push(("weights_sigma", sigma));
     }
-    Ok(Results { normals, grays })
+    Ok(Results {
+        normals: out.normals,
+        grays,
+    })
 }
 
-/// The noise estimate, the normals' standard errors and (unless `--no-spatial`, and with
-/// one table) the spatial stage: (normals, confidence, extra images).
-fn spatial_stage(
-    args: &Args,
-    stack: &photostereo::ImageStack,
-    mask: &Mask,
-    tables: &[Table],
-    out: &lut::Output,
-    global: Global,
-) -> anyhow::Result<(NormalMap, GrayImage, Grays)> {
-    if tables.len() != 1 {
-        // mixtures: the evidence of a pixel depends on its weights too (not modelled)
-        return Ok((out.normals.clone(), out.confidence.clone(), Vec::new()));
+/// The maps of the spatial stage, in the order they are written: normals_sigma, then
+/// own_share (when the stage ran). Takes them out of `out`.
+fn spatial_grays(out: &mut normals::Output) -> Grays {
+    let sigma = out.normals_sigma.take().map(|s| ("normals_sigma", s));
+    let share = out.own_share.take().map(|s| ("own_share", s));
+    sigma.into_iter().chain(share).collect()
+}
+
+/// The lines about the noise and the spatial stage.
+fn say_spatial(out: &normals::Output, mask: &Mask, global: Global) {
+    if global.quiet {
+        return;
     }
-    let (noise, censor) = spatial::NoiseModel::estimate_with_censor(stack, mask);
-    let opts = spatial_options(args);
-    let say = |s: String| {
-        if !global.quiet {
-            println!("{s}");
-        }
-    };
-    say(format!(
+    for w in &out.warnings {
+        println!("note: {w}");
+    }
+    let Some(noise) = &out.noise else { return };
+    println!(
         "noise measured on the target: σ = √({:.3e}² + {:.3e}·I), at least the \
          quantisation step {:.3e} / √12",
         noise.read, noise.gain, noise.step
-    ));
-    if args.no_spatial {
-        let ev = spatial::info::from_table(
-            stack,
-            mask,
-            &tables[0],
-            &out.normals,
-            out.albedo.as_ref(),
-            (&noise, &censor),
-            opts.shadow_level,
-        );
-        let sigma = ev.sigma_deg(mask);
-        say(format!(
+    );
+    match (&out.spatial, &out.normals_sigma) {
+        (Some(s), _) => println!(
+            "spatial stage: {} of {} pixels decided by their neighbours, {} discontinuity cuts, \
+             {} kept their own match (their data reject the neighbours' normal); angular \
+             standard error of the own data: mean {:.2}° (normals_sigma.npy)",
+            s.decided_by_neighbours, s.pixels, s.cut_triples, s.kept_own, s.mean_sigma_deg
+        ),
+        (None, Some(sigma)) => println!(
             "angular standard error: mean {:.2}° (normals_sigma.npy)",
-            spatial::mean_in(&sigma, mask)
-        ));
-        return Ok((
-            out.normals.clone(),
-            out.confidence.clone(),
-            vec![("normals_sigma", sigma)],
-        ));
+            spatial::mean_in(sigma, mask)
+        ),
+        (None, None) => {}
     }
-    let sp = spatial::solve_table(stack, mask, &tables[0], out, &noise, &opts)
-        .context("spatial stage after the lookup")?;
-    say(format!(
-        "spatial stage: {} of {} pixels decided by their neighbours, {} discontinuity cuts, \
-         {} kept their own match (their data reject the neighbours' normal); angular \
-         standard error of the own data: mean {:.2}° (normals_sigma.npy)",
-        sp.stats.decided_by_neighbours,
-        sp.stats.pixels,
-        sp.stats.cut_triples,
-        sp.stats.kept_own,
-        sp.stats.mean_sigma_deg
-    ));
-    let confidence = spatial::confidence_after(&out.confidence, &sp.own_share);
-    Ok((
-        sp.normals,
-        confidence,
-        vec![("normals_sigma", sp.sigma_deg), ("own_share", sp.own_share)],
-    ))
 }
 
 fn lambertian_normals(
@@ -298,39 +276,27 @@ fn lambertian_normals(
     } else {
         lambertian::Options::default()
     };
-    let out = lambertian::solve(&data.stack, mask, lights, &opts)?;
+    let input = normals::Input::Lambertian(lights, &opts);
+    let out = normals::pixelwise(&data.stack, mask, &input, &NoProgress)?;
     if !global.quiet {
         println!("Lambertian least squares on {} pixels", mask.count());
     }
-    let noise = spatial::NoiseModel::estimate(&data.stack, mask);
-    let ev = spatial::info::from_lambertian(
-        &data.stack,
-        mask,
-        lights,
-        &out.normals,
-        &out.albedo,
-        &noise,
-    );
-    let (normals, sigma, extra) = if !args.no_spatial {
-        let sp = spatial::solve(&ev, mask, &spatial_options(args))
-            .context("spatial stage after the Lambertian solve")?;
-        if !global.quiet {
-            println!(
-                "spatial stage: {} of {} pixels decided by their neighbours",
-                sp.stats.decided_by_neighbours, sp.stats.pixels
-            );
-        }
-        (sp.normals, sp.sigma_deg, vec![("own_share", sp.own_share)])
-    } else {
-        (out.normals, ev.sigma_deg(mask), Vec::new())
-    };
-    let mut grays = vec![
-        ("albedo", out.albedo),
-        ("residual", out.residual),
-        ("normals_sigma", sigma),
-    ];
-    grays.extend(extra);
-    Ok(Results { normals, grays })
+    let mut out = normals::spatial_stage(&data.stack, mask, &input, &normals_options(args), out)
+        .context("spatial stage after the Lambertian solve")?;
+    if let (Some(s), false) = (&out.spatial, global.quiet) {
+        println!(
+            "spatial stage: {} of {} pixels decided by their neighbours",
+            s.decided_by_neighbours, s.pixels
+        );
+    }
+    let spatial = spatial_grays(&mut out);
+    let mut grays: Grays = out.albedo.map(|a| ("albedo", a)).into_iter().collect();
+    grays.push(("residual", out.residual));
+    grays.extend(spatial);
+    Ok(Results {
+        normals: out.normals,
+        grays,
+    })
 }
 
 fn write_results(dir: &Path, r: &Results, mask: &Mask) -> anyhow::Result<()> {
@@ -352,12 +318,15 @@ fn write_results(dir: &Path, r: &Results, mask: &Mask) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The spatial stage's settings: the defaults, without the contour prior under
+/// The settings after the lookup or the Lambertian solve: the spatial stage with its
+/// defaults (none under `--no-spatial`), without the contour prior under
 /// `--no-contour`.
-fn spatial_options(args: &Args) -> spatial::Options {
+fn normals_options(args: &Args) -> normals::Options {
     let mut opts = spatial::Options::default();
     if args.no_contour {
         opts.contour_sigma = None;
     }
-    opts
+    normals::Options {
+        spatial: (!args.no_spatial).then_some(opts),
+    }
 }

@@ -53,6 +53,7 @@ pub mod lightcal;
 pub mod limits;
 pub mod lut;
 pub mod mesh;
+pub mod normals;
 pub mod picture;
 pub mod pipeline;
 pub mod plan;
@@ -62,9 +63,11 @@ pub mod report;
 pub mod spatial;
 pub mod sphere;
 pub mod synth;
+pub mod warning;
 
 pub use error::{Error, Result, Setting};
 pub use image::{DepthMap, GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
+pub use warning::{Warning, WarningCode};
 
 /// The README's Rust code, compiled and run by `cargo test --doc` so that it stays true.
 #[doc = include_str!("../../../README.md")]

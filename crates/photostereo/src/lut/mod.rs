@@ -262,6 +262,11 @@ impl<'t> Lookup<'t> {
         }
     }
 
+    /// The tables the lookup was prepared for, as given.
+    pub fn tables(&self) -> &[Table] {
+        &self.given
+    }
+
     /// The options the lookup was prepared with ([`Options::split_if_specular`]
     /// resolved by [`options_for`]).
     pub fn options(&self) -> &Options {

@@ -1,15 +1,14 @@
-//! The spatial stage of a run ([`crate::spatial`]), after the lookup or the Lambertian
-//! solve: the noise is measured on the target, each pixel gets the angular standard error
-//! of its normal from its own data (`normals_sigma`), and — with
+//! The spatial stage of a run ([`crate::spatial`], run by
+//! [`crate::normals::spatial_stage`]), after the lookup or the Lambertian solve: the
+//! noise is measured on the target, each pixel gets the angular standard error of its
+//! normal from its own data (`normals_sigma`), and — with
 //! [`super::Options::spatial`] — pixels whose data say little take their normal from
 //! their neighbours (their confidence is multiplied by the share of their own data,
-//! `own_share`). Without it only the standard errors are computed.
+//! `own_share`). Without it only the standard errors are computed. The band-wise run
+//! ([`super::banded`]) composes the same steps band by band and reports them here too.
 
-use super::timer::Stages;
-use super::{Estimate, Job, Options};
-use crate::error::Result;
-use crate::image::{GrayImage, Lights, Mask};
-use crate::lut::Table;
+use super::{Estimate, Options};
+use crate::image::{GrayImage, Mask};
 use crate::spatial::{self, NoiseModel};
 
 /// What the stage adds to the normals' estimate.
@@ -34,72 +33,14 @@ pub(super) fn name(opts: &Options) -> &'static str {
     }
 }
 
-/// After a lookup with `table`.
-pub(super) fn after_lookup(
-    st: &mut Stages,
-    job: &Job,
-    table: &Table,
-    opts: &Options,
-    mut est: Estimate,
-) -> Result<Estimate> {
-    st.run(name(opts), |_| {
-        let (stack, mask) = (&job.target, &job.mask);
-        let (noise, censor) = NoiseModel::estimate_with_censor(stack, mask);
-        let albedo = est.albedo.as_ref();
-        let info = match &opts.spatial {
-            None => {
-                let level = opts.lookup.shadow_level;
-                let ev = spatial::info::from_table(
-                    stack,
-                    mask,
-                    table,
-                    &est.normals,
-                    albedo,
-                    (&noise, &censor),
-                    level,
-                );
-                own_only(noise, ev.sigma_deg(mask))
-            }
-            Some(sp_opts) => {
-                let lookup = (&est.normals, albedo);
-                let sp = spatial::solve_lookup(stack, mask, table, lookup, &noise, sp_opts)?;
-                adopt(&mut est, noise, sp)
-            }
-        };
-        est.spatial = Some(info);
-        Ok(est)
-    })
-}
-
-/// After a Lambertian solve with `lights` (its albedo in `est`).
-pub(super) fn after_lambertian(
-    st: &mut Stages,
-    job: &Job,
-    lights: &Lights,
-    opts: &Options,
-    mut est: Estimate,
-) -> Result<Estimate> {
-    st.run(name(opts), |_| {
-        let (stack, mask) = (&job.target, &job.mask);
-        let noise = NoiseModel::estimate(stack, mask);
-        let ones;
-        let albedo = match &est.albedo {
-            Some(a) => a,
-            None => {
-                ones = GrayImage::from_fn(mask.width, mask.height, |_, _| 1.0);
-                &ones
-            }
-        };
-        let ev = spatial::info::from_lambertian(stack, mask, lights, &est.normals, albedo, &noise);
-        let info = match &opts.spatial {
-            None => own_only(noise, ev.sigma_deg(mask)),
-            Some(sp_opts) => {
-                let sp = spatial::solve(&ev, mask, sp_opts)?;
-                adopt(&mut est, noise, sp)
-            }
-        };
-        est.spatial = Some(info);
-        Ok(est)
+/// What [`crate::normals::spatial_stage`] gave, as the stage reports it (`None` where
+/// it computed nothing: a mixture of two tables).
+pub(super) fn info_of(out: &mut crate::normals::Output) -> Option<SpatialInfo> {
+    Some(SpatialInfo {
+        noise: out.noise?,
+        sigma: out.normals_sigma.take()?,
+        own_share: out.own_share.take(),
+        stats: out.spatial.take(),
     })
 }
 

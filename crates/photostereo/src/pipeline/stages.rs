@@ -6,7 +6,7 @@ use super::{spatial_stage, Accuracy, Estimate, Interreflections, Job, Normals, O
 use crate::error::Result;
 use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::Progress;
-use crate::{eval, integrate, interreflect, lambertian, lut, sphere};
+use crate::{eval, integrate, interreflect, lut, normals, sphere};
 
 /// Stages before the accuracy one: normals (1 to 4, the spatial stage included), integration (unless NIK made the
 /// depth), mesh.
@@ -47,20 +47,16 @@ pub(super) fn normals(
             let table = st.run("lookup table", |_| {
                 lut::Table::build(sphere, &det.circle, &opts.build)
             })?;
-            let est = st.run("lookup", |p| lookup(job, &table, opts, p))?;
-            let est = spatial_stage::after_lookup(st, job, &table, opts, est)?;
+            let est = lookup(st, job, &table, opts)?;
             (est, Some(det), None)
         }
         Normals::Calibrated(cal) => {
-            let est = st.run("lookup", |p| lookup(job, &cal.table, opts, p))?;
-            let est = spatial_stage::after_lookup(st, job, &cal.table, opts, est)?;
+            let est = lookup(st, job, &cal.table, opts)?;
             (est, cal.detection.clone(), None)
         }
         Normals::Lambertian { lights } if !opts.interreflections => {
-            let est = st.run("Lambertian photometric stereo", |_| {
-                lambertian_normals(&job.target, &job.mask, lights, opts)
-            })?;
-            let est = spatial_stage::after_lambertian(st, job, lights, opts, est)?;
+            let input = normals::Input::Lambertian(lights, &opts.lambertian);
+            let est = normals_of(st, job, opts, &input, "Lambertian photometric stereo")?;
             (est, None, None)
         }
         Normals::Lambertian { lights } => {
@@ -101,37 +97,41 @@ pub(super) fn note_split(table: &lut::Table, opts: &Options, p: &dyn Progress) {
     }
 }
 
-fn lookup(job: &Job, table: &lut::Table, opts: &Options, p: &dyn Progress) -> Result<Estimate> {
-    note_split(table, opts, p);
-    let out = lut::solve(
-        &job.target,
-        &job.mask,
-        std::slice::from_ref(table),
-        &opts.lookup,
-        p,
-    )?;
+/// The lookup in `table` and the spatial stage, as two timed stages.
+fn lookup(st: &mut Stages, job: &Job, table: &lut::Table, opts: &Options) -> Result<Estimate> {
+    let tables = std::slice::from_ref(table);
+    let input = normals::Input::Tables(tables, &opts.lookup);
+    normals_of(st, job, opts, &input, "lookup")
+}
+
+/// [`normals::pixelwise`] as the stage `name`, then [`normals::spatial_stage`].
+fn normals_of(
+    st: &mut Stages,
+    job: &Job,
+    opts: &Options,
+    input: &normals::Input,
+    name: &str,
+) -> Result<Estimate> {
+    let (stack, mask) = (&job.target, &job.mask);
+    let out = st.run(name, |p| {
+        if let normals::Input::Tables([table], _) = input {
+            note_split(table, opts, p);
+        }
+        normals::pixelwise(stack, mask, input, p)
+    })?;
+    let n_opts = normals::Options {
+        spatial: opts.spatial.clone(),
+    };
+    let mut out = st.run(spatial_stage::name(opts), |_| {
+        normals::spatial_stage(stack, mask, input, &n_opts, out)
+    })?;
+    let spatial = spatial_stage::info_of(&mut out);
     Ok(Estimate {
         normals: out.normals,
         albedo: out.albedo,
-        confidence: Some(out.confidence),
+        confidence: out.confidence,
         depth: None,
-        spatial: None,
-    })
-}
-
-fn lambertian_normals(
-    stack: &ImageStack,
-    mask: &Mask,
-    lights: &Lights,
-    opts: &Options,
-) -> Result<Estimate> {
-    let out = lambertian::solve(stack, mask, lights, &opts.lambertian)?;
-    Ok(Estimate {
-        normals: out.normals,
-        albedo: Some(out.albedo),
-        confidence: None,
-        depth: None,
-        spatial: None,
+        spatial,
     })
 }
 
