@@ -41,6 +41,10 @@ pub struct Args {
     /// Also write a triangle mesh (.ply binary or .obj), pixel units.
     #[arg(long)]
     pub mesh: Option<PathBuf>,
+    /// At most this many triangles in the --mesh: a bigger mesh is made on every 2nd
+    /// (3rd…) pixel, its vertices on the full-resolution depth. Default: full resolution.
+    #[arg(long, value_name = "N", requires = "mesh")]
+    pub mesh_max_faces: Option<usize>,
     /// Per-pixel confidence (float32 .npy, H x W, ≥ 0) weighting lsq.
     #[arg(long)]
     pub weights: Option<PathBuf>,
@@ -169,6 +173,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             &mesh::MeshOptions {
                 camera: out.camera.as_ref(),
                 cuts: out.discontinuities.as_ref(),
+                max_faces: args.mesh_max_faces,
             },
         )?),
         None => None,

@@ -81,3 +81,57 @@ fn the_budget_sets_the_bands_and_an_impossible_one_stops_the_run() {
     let b = std::fs::read(one.join("depth.npy")).unwrap();
     assert!(a == b, "the same depth, byte for byte");
 }
+
+/// (vertices, faces) from a binary PLY's header.
+fn ply_counts(path: &std::path::Path) -> (usize, usize) {
+    let bytes = std::fs::read(path).unwrap();
+    let end = bytes.windows(10).position(|w| w == b"end_header").unwrap();
+    let header = std::str::from_utf8(&bytes[..end]).unwrap();
+    let count = |name: &str| -> usize {
+        let line = header.lines().find(|l| l.starts_with(name)).unwrap();
+        line.split(' ').nth(2).unwrap().parse().unwrap()
+    };
+    (count("element vertex "), count("element face "))
+}
+
+#[test]
+fn mesh_max_faces_caps_the_mesh_and_says_so() {
+    let dir = tmp("mesh-cap");
+    let data = dir.join("vase");
+    photostereo_ok(&[
+        "-q",
+        "synth",
+        "--shape",
+        "vase",
+        "--size",
+        "160",
+        "-k",
+        "8",
+        "-o",
+        s(&data),
+    ]);
+    let full = dir.join("full");
+    let (ok, _, err) = photostereo(&["run", s(&data), "--lambertian", "-o", s(&full)]);
+    assert!(ok, "{err}");
+    let (nv, nf) = ply_counts(&full.join("mesh.ply"));
+    assert!(nf > 10_000, "{nf} faces at full resolution");
+    let capped = dir.join("capped");
+    let (ok, out, err) = photostereo(&[
+        "run",
+        s(&data),
+        "--lambertian",
+        "-o",
+        s(&capped),
+        "--mesh-max-faces",
+        "10000",
+    ]);
+    assert!(ok, "{err}");
+    let (cv, cf) = ply_counts(&capped.join("mesh.ply"));
+    assert!(cf <= 10_000 && cf > 2_500, "{cf} faces for a cap of 10000");
+    assert!(cv < nv, "{cv} vertices of {nv}");
+    assert!(out.contains("the mesh is capped"), "{out}");
+    // the depth keeps every pixel
+    let a = std::fs::read(full.join("depth.npy")).unwrap();
+    let b = std::fs::read(capped.join("depth.npy")).unwrap();
+    assert!(a == b, "the same depth with a capped mesh");
+}

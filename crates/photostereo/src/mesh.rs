@@ -16,6 +16,12 @@
 //! discontinuities found by bilateral integration) no triangle spans a cut edge, so
 //! depth jumps stay open instead of being bridged by long thin triangles.
 //!
+//! **Big meshes** ([`MeshOptions::max_faces`]): a mesh over more faces than asked is
+//! made on every s-th row and column of the pixels (s the least integer stride that
+//! fits), so its vertices are pixels of the full-resolution mesh, at the same places;
+//! a triangle of the coarse grid is left out where any of the full-resolution edges it
+//! spans is cut. The mask's boundary is followed at the stride's resolution.
+//!
 //! Writers take any `std::io::Write`; the library opens no files.
 
 use crate::error::{Error, Result};
@@ -34,6 +40,9 @@ pub struct Mesh {
     pub colors: Option<Vec<[u8; 3]>>,
     /// Triangles as indices into `vertices`, counter-clockwise seen from +z.
     pub faces: Vec<[u32; 3]>,
+    /// Rows and columns of pixels from one vertex to the next: 1 = every pixel, s > 1 =
+    /// every s-th row and column ([`MeshOptions::max_faces`]); 0 in an empty mesh.
+    pub stride: usize,
 }
 
 fn check_size(what: &str, w: usize, h: usize, depth: &DepthMap) -> Result<()> {
@@ -58,6 +67,9 @@ pub struct MeshOptions<'a> {
     pub camera: Option<&'a Camera>,
     /// Edges that no triangle may span (depth discontinuities).
     pub cuts: Option<&'a Discontinuities>,
+    /// At most this many triangles: a bigger mesh is made on every s-th row and column
+    /// (module docs); `None` = full resolution whatever the size.
+    pub max_faces: Option<usize>,
 }
 
 /// Build a mesh from a depth map and its mask (see the module documentation).
@@ -90,10 +102,19 @@ pub fn from_depth_with(
         check_size("mesh albedo", a.width, a.height, depth)?;
     }
     let valid = |i: usize| mask.data[i] && depth.data[i].is_finite();
-    let mut index = vec![u32::MAX; w * h];
-    let mut mesh = Mesh::default();
-    for r in 0..h {
-        for c in 0..w {
+    let stride = match opts.max_faces {
+        Some(max) => stride_for(&valid, (w, h), opts.cuts, max),
+        None => 1,
+    };
+    let grid = Grid { w, h, stride };
+    let (ws, hs) = (grid.cols(), grid.rows());
+    let mut index = vec![u32::MAX; ws * hs];
+    let mut mesh = Mesh {
+        stride,
+        ..Mesh::default()
+    };
+    for (rs, r) in (0..h).step_by(stride).enumerate() {
+        for (cs, c) in (0..w).step_by(stride).enumerate() {
             let i = r * w + c;
             if !valid(i) {
                 continue;
@@ -101,7 +122,7 @@ pub fn from_depth_with(
             if mesh.vertices.len() >= u32::MAX as usize {
                 return Err(Error::invalid("mesh", "more than 4 billion vertices"));
             }
-            index[i] = mesh.vertices.len() as u32;
+            index[rs * ws + cs] = mesh.vertices.len() as u32;
             let v = match opts.camera {
                 Some(cam) => cam
                     .back_project(r, c, depth.data[i] as f64)
@@ -123,10 +144,80 @@ pub fn from_depth_with(
         });
     }
     if let Some(a) = albedo {
-        mesh.colors = Some(colors(a, &index));
+        mesh.colors = Some(colors(a, &index, &grid));
     }
-    mesh.faces = faces(&index, w, h, opts.cuts);
+    each_face(&index, &grid, opts.cuts, |t| mesh.faces.push(t));
     Ok(mesh)
+}
+
+/// The grid of the mesh's vertices: every `stride`-th row and column of a w × h image.
+struct Grid {
+    w: usize,
+    h: usize,
+    stride: usize,
+}
+
+impl Grid {
+    fn cols(&self) -> usize {
+        self.w.div_ceil(self.stride)
+    }
+
+    fn rows(&self) -> usize {
+        self.h.div_ceil(self.stride)
+    }
+
+    /// Image index of grid pixel k.
+    fn pixel(&self, k: usize) -> usize {
+        let (rs, cs) = (k / self.cols(), k % self.cols());
+        rs * self.stride * self.w + cs * self.stride
+    }
+
+    /// Whether a cut lies on the image row from grid pixel k to the next grid column
+    /// (`east`) or on the image column down to the next grid row.
+    fn cut(&self, cuts: Option<&Discontinuities>, k: usize, east: bool) -> bool {
+        let Some(cuts) = cuts else { return false };
+        let i = self.pixel(k);
+        (0..self.stride).any(|t| {
+            if east {
+                cuts.east.get(i + t).copied().unwrap_or(false)
+            } else {
+                cuts.south.get(i + t * self.w).copied().unwrap_or(false)
+            }
+        })
+    }
+}
+
+/// The least stride whose mesh has at most `max` faces (1 when the full one fits; the
+/// stride at which at most one face is left otherwise).
+fn stride_for(
+    valid: &impl Fn(usize) -> bool,
+    (w, h): (usize, usize),
+    cuts: Option<&Discontinuities>,
+    max: usize,
+) -> usize {
+    let count = |stride: usize| {
+        let grid = Grid { w, h, stride };
+        let index: Vec<u32> = (0..grid.cols() * grid.rows())
+            .map(|k| if valid(grid.pixel(k)) { 0 } else { u32::MAX })
+            .collect();
+        let mut n = 0usize;
+        each_face(&index, &grid, cuts, |_| n += 1);
+        n
+    };
+    let full = count(1);
+    if full <= max {
+        return 1;
+    }
+    // faces fall as 1/s²: start there and step up until it fits
+    let mut s = ((full as f64 / max.max(1) as f64).sqrt().floor() as usize).max(2);
+    while s < w.max(h) && count(s) > max {
+        s += 1;
+    }
+    // the mask's outline does not shrink exactly as 1/s²: the least stride that fits
+    while s > 2 && count(s - 1) <= max {
+        s -= 1;
+    }
+    s
 }
 
 /// Normal of the vertex at (r, c): from the normal map when usable, else from the depth.
@@ -161,13 +252,11 @@ fn vertex_normal(
     normalize([-p, -q, 1.0])
 }
 
-fn colors(albedo: &GrayImage, index: &[u32]) -> Vec<[u8; 3]> {
+fn colors(albedo: &GrayImage, index: &[u32], grid: &Grid) -> Vec<[u8; 3]> {
     let inside = || {
-        albedo
-            .data
-            .iter()
-            .zip(index)
+        (index.iter().enumerate())
             .filter(|(_, &k)| k != u32::MAX)
+            .map(|(k, _)| (&albedo.data[grid.pixel(k)], ()))
     };
     let max = inside()
         .map(|(&a, _)| a)
@@ -186,13 +275,18 @@ fn colors(albedo: &GrayImage, index: &[u32]) -> Vec<[u8; 3]> {
         .collect()
 }
 
-/// Triangles of every 2 × 2 block: a b / c d → (a, c, b) and (b, c, d) when all four
-/// are vertices, otherwise the one triangle of the three that are; a triangle with a
-/// cut edge (a–b, c–d east; a–c, b–d south) is left out.
-fn faces(index: &[u32], w: usize, h: usize, cuts: Option<&Discontinuities>) -> Vec<[u32; 3]> {
-    let mut faces = Vec::new();
-    let east = |i: usize| cuts.is_some_and(|k| k.east[i]);
-    let south = |i: usize| cuts.is_some_and(|k| k.south[i]);
+/// Triangles of every 2 × 2 block of the grid: a b / c d → (a, c, b) and (b, c, d) when
+/// all four are vertices, otherwise the one triangle of the three that are; a triangle
+/// with a cut edge (a–b, c–d east; a–c, b–d south) is left out. `emit` gets each one.
+fn each_face(
+    index: &[u32],
+    grid: &Grid,
+    cuts: Option<&Discontinuities>,
+    mut emit: impl FnMut([u32; 3]),
+) {
+    let (w, h) = (grid.cols(), grid.rows());
+    let east = |k: usize| grid.cut(cuts, k, true);
+    let south = |k: usize| grid.cut(cuts, k, false);
     for r in 0..h.saturating_sub(1) {
         for c in 0..w.saturating_sub(1) {
             let i = r * w + c;
@@ -202,7 +296,7 @@ fn faces(index: &[u32], w: usize, h: usize, cuts: Option<&Discontinuities>) -> V
             let (ab, cd, ac, bd) = (!east(i), !east(i + w), !south(i), !south(i + 1));
             let mut push = |t: [u32; 3], open: bool| {
                 if open {
-                    faces.push(t);
+                    emit(t);
                 }
             };
             match (ok(a), ok(b), ok(cc), ok(d)) {
@@ -218,7 +312,6 @@ fn faces(index: &[u32], w: usize, h: usize, cuts: Option<&Discontinuities>) -> V
             }
         }
     }
-    faces
 }
 
 fn io_err(e: std::io::Error) -> Error {
@@ -239,9 +332,17 @@ pub fn write_ply_binary(mesh: &Mesh, out: &mut (impl Write + ?Sized)) -> Result<
         "element face {}\nproperty list uchar int vertex_indices\nend_header\n",
         mesh.faces.len()
     ));
-    let mut buf =
-        Vec::with_capacity(header.len() + mesh.vertices.len() * 27 + mesh.faces.len() * 13);
+    // written in pieces of about 1 MiB: a whole-file buffer would double the mesh's memory
+    const PIECE: usize = 1 << 20;
+    let mut buf = Vec::with_capacity(PIECE + 64);
     buf.extend_from_slice(header.as_bytes());
+    let mut spill = |buf: &mut Vec<u8>, force: bool| -> Result<()> {
+        if force || buf.len() >= PIECE {
+            out.write_all(buf).map_err(io_err)?;
+            buf.clear();
+        }
+        Ok(())
+    };
     for (k, (v, n)) in mesh.vertices.iter().zip(&mesh.normals).enumerate() {
         for x in v.iter().chain(n.iter()) {
             buf.extend_from_slice(&x.to_le_bytes());
@@ -249,14 +350,16 @@ pub fn write_ply_binary(mesh: &Mesh, out: &mut (impl Write + ?Sized)) -> Result<
         if let Some(col) = &mesh.colors {
             buf.extend_from_slice(&col[k]);
         }
+        spill(&mut buf, false)?;
     }
     for f in &mesh.faces {
         buf.push(3);
         for &i in f {
             buf.extend_from_slice(&(i as i32).to_le_bytes());
         }
+        spill(&mut buf, false)?;
     }
-    out.write_all(&buf).map_err(io_err)?;
+    spill(&mut buf, true)?;
     out.flush().map_err(io_err)
 }
 

@@ -171,6 +171,7 @@ fn bini_gets_sphere_and_plane_right_lsq_smears_the_jump() {
     let mesh_opts = MeshOptions {
         camera: bini.camera.as_ref(),
         cuts: Some(disc),
+        ..Default::default()
     };
     let mesh = from_depth_with(&bini.depth, &mask, Some(&s.normals), None, &mesh_opts).unwrap();
     // Back-projection: vertices are the true points up to the plane's scale.

@@ -130,6 +130,12 @@ pub struct Args {
     /// Do not compute the curvature maps.
     #[arg(long, conflicts_with = "curvature_sigma")]
     pub no_curvature: bool,
+    /// At most this many triangles in mesh.ply: a bigger mesh is made on every 2nd (3rd…)
+    /// pixel, its vertices still on the full-resolution depth (depth.npy keeps every
+    /// pixel). 0 = full resolution whatever the size. The default keeps every capture up
+    /// to about 2000 × 2000 mask pixels whole.
+    #[arg(long, value_name = "N", default_value_t = photostereo::pipeline::DEFAULT_MESH_MAX_FACES)]
+    pub mesh_max_faces: usize,
     /// Also write normal_map.png, a 16-bit normal map for 3-D and relighting tools:
     /// opengl (green up: Blender, Maya, Unity, Godot, three.js; the same encoding as
     /// normals.png) or directx (green down: Unreal Engine, 3ds Max). Outside the mask it
@@ -221,6 +227,7 @@ fn options(args: &Args) -> Result<pipeline::Options> {
     }
     opts.nik.radiosity.block = args.block.unwrap_or(0);
     opts.memory = args.memory;
+    opts.mesh_max_faces = (args.mesh_max_faces > 0).then_some(args.mesh_max_faces);
     opts.exports = pipeline::Exports {
         normal_map: args.normal_map,
         float_tiff: args.tiff,

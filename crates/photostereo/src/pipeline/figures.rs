@@ -171,9 +171,18 @@ pub(super) fn summary(
         (
             "mesh".into(),
             format!(
-                "{} vertices, {} triangles",
+                "{} vertices, {} triangles{}",
                 mesh.vertices.len(),
-                mesh.faces.len()
+                mesh.faces.len(),
+                if mesh.stride > 1 {
+                    format!(
+                        " (one vertex every {} rows and columns: the mesh is capped; \
+                         depth.npy has every pixel)",
+                        mesh.stride
+                    )
+                } else {
+                    String::new()
+                }
             ),
         ),
     ];

@@ -147,9 +147,20 @@ pub struct Options {
     /// Curvature maps from the normals ([`crate::curvature`]) with these settings;
     /// `None` = not computed. Default on, smoothing σ = 1 px.
     pub curvature: Option<curvature::Options>,
+    /// At most this many triangles in the mesh (`mesh.ply`): a bigger one is made on
+    /// every s-th row and column ([`mesh::MeshOptions::max_faces`]). `None` = full
+    /// resolution. Default [`DEFAULT_MESH_MAX_FACES`].
+    pub mesh_max_faces: Option<usize>,
     /// Extra files for other tools, written by [`write_outputs`] (default: none).
     pub exports: Exports,
 }
+
+/// Default cap of the mesh's triangles: 8 million (a binary PLY of about 210 MB). Every
+/// capture up to about 2000 × 2000 mask pixels keeps its full-resolution mesh; a bigger
+/// one (a 4096² capture has ~20 M triangles: a 500 MB file, 0.5 GB of memory while
+/// written, and slow to open in mesh viewers) gets every 2nd or 3rd pixel, while the
+/// normals and depth keep every pixel.
+pub const DEFAULT_MESH_MAX_FACES: usize = 8_000_000;
 
 /// Extra files of a run for other tools ([`crate::io::export`]).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -177,6 +188,7 @@ impl Default for Options {
             memory: None,
             max_band_rows: None,
             curvature: Some(curvature::Options::default()),
+            mesh_max_faces: Some(DEFAULT_MESH_MAX_FACES),
             exports: Exports::default(),
         }
     }
@@ -303,6 +315,7 @@ fn finish(
     let mesh = st.run("mesh", |_| {
         let mo = mesh::MeshOptions {
             cuts: cuts.as_ref(),
+            max_faces: opts.mesh_max_faces,
             ..Default::default()
         };
         mesh::from_depth_with(
