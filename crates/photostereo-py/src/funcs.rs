@@ -7,7 +7,7 @@ use numpy::{PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3};
 use photostereo::image::{GrayImage, ImageStack, Mask};
 use photostereo::progress::NoProgress;
 use photostereo::{integrate as integ, interreflect as ir, lambertian as lamb, lightcal};
-use photostereo::{lut, pipeline, spatial as sp, sphere};
+use photostereo::{lut, normals, pipeline, sphere};
 use pyo3::prelude::*;
 
 use crate::convert::{self, value_error};
@@ -32,7 +32,7 @@ pub struct LookupResult {
     #[pyo3(get)]
     weights: Option<Vec<Py<PyArray2<f32>>>>,
     /// (H, W) float32 angular standard error (degrees) of each normal from its own data
-    /// (lookup with spatial=True), else None.
+    /// (None with two tables).
     #[pyo3(get)]
     normals_sigma: Option<Py<PyArray2<f32>>>,
     /// (H, W) float32 share in [0, 1] of each pixel's own data in its normal (spatial
@@ -66,13 +66,14 @@ fn mask_or_full(mask: Option<PyReadonlyArray2<'_, bool>>, s: &ImageStack) -> Mas
         .unwrap_or_else(|| Mask::full(s.width, s.height))
 }
 
-/// lookup(images, names, tables, mask=None, normalize=False, spatial=False) -> Result
+/// lookup(images, names, tables, mask=None, normalize=False, spatial=None) -> Result
 ///
-/// With `spatial`, the spatial stage of `photostereo normals` follows the lookup (one
-/// table): the noise measured on the target, the spatial solve, the confidence times
-/// each pixel's own share.
+/// [`photostereo::normals::solve`], as `photostereo normals`: the lookup, then (one
+/// table; `spatial=None` or `True`) the spatial stage: the noise measured on the
+/// target, the spatial solve, the confidence times each pixel's own share.
+/// `spatial=False` keeps every pixel's own match (`--no-spatial`).
 #[pyfunction]
-#[pyo3(signature = (images, names, tables, mask=None, normalize=false, spatial=false))]
+#[pyo3(signature = (images, names, tables, mask=None, normalize=false, spatial=None))]
 pub fn lookup(
     py: Python<'_>,
     images: PyReadonlyArray3<'_, f32>,
@@ -80,79 +81,98 @@ pub fn lookup(
     tables: Vec<PyRef<'_, Table>>,
     mask: Option<PyReadonlyArray2<'_, bool>>,
     normalize: bool,
-    spatial: bool,
+    spatial: Option<bool>,
 ) -> PyResult<LookupResult> {
     let stack = convert::stack_from(&images, names)?;
     let mask = mask_or_full(mask, &stack);
-    let tables: Vec<lut::Table> = tables.iter().map(|t| t.cal.table.clone()).collect();
-    if spatial && tables.len() != 1 {
+    let tables: Vec<&Table> = tables.iter().map(|t| &**t).collect();
+    lookup_stack(py, stack, mask, &tables, normalize, spatial)
+}
+
+/// [`lookup`] on a library stack and mask: one table through its prepared
+/// [`lut::Lookup`] (built at its first use, then reused), two (a mixture) prepared for
+/// this call.
+pub(crate) fn lookup_stack(
+    py: Python<'_>,
+    stack: ImageStack,
+    mask: Mask,
+    tables: &[&Table],
+    normalize: bool,
+    spatial: Option<bool>,
+) -> PyResult<LookupResult> {
+    if spatial == Some(true) && tables.len() != 1 {
         return Err(value_error(format!(
             "spatial=True with {} tables: the spatial stage models one table (mixtures are \
              not modelled); give one table or spatial=False",
             tables.len()
         )));
     }
-    let opts = lut::Options {
-        normalize,
-        ..Default::default()
+    let opts = normals::Options {
+        spatial: spatial.unwrap_or(true).then(Default::default),
     };
-    let (out, sp) = crate::compute(py, move || {
-        let out = lut::solve(&stack, &mask, &tables, &opts, &NoProgress)?;
-        if !spatial {
-            return Ok((out, None));
-        }
-        let noise = sp::NoiseModel::estimate(&stack, &mask);
-        let s = sp::solve_table(&stack, &mask, &tables[0], &out, &noise, &Default::default())?;
-        Ok((out, Some(s)))
-    })?;
-    let (normals, confidence, sigma, share) = match sp {
-        None => (out.normals, out.confidence, None, None),
-        Some(s) => {
-            let c = sp::confidence_after(&out.confidence, &s.own_share);
-            (s.normals, c, Some(s.sigma_deg), Some(s.own_share))
+    let out = match tables {
+        [one] => crate::compute(py, || {
+            let prepared = one.prepared(normalize)?;
+            let input = normals::Input::Lookup(&prepared);
+            normals::solve(&stack, &mask, &input, &opts, &NoProgress)
+        })?,
+        _ => {
+            let tables: Vec<lut::Table> = tables.iter().map(|t| t.cal.table.clone()).collect();
+            let asked = crate::table::lookup_options(normalize);
+            crate::compute(py, || {
+                let input = normals::Input::Tables(&tables, &asked);
+                normals::solve(&stack, &mask, &input, &opts, &NoProgress)
+            })?
         }
     };
-    Ok(LookupResult {
-        normals: convert::normals_to_py(py, normals).unbind(),
+    Ok(result(py, out))
+}
+
+/// The Python result of [`normals::solve`].
+fn result(py: Python<'_>, out: normals::Output) -> LookupResult {
+    LookupResult {
+        normals: convert::normals_to_py(py, out.normals).unbind(),
         albedo: out.albedo.map(|a| gray(py, a)),
-        confidence: Some(gray(py, confidence)),
+        confidence: out.confidence.map(|c| gray(py, c)),
         residual: gray(py, out.residual),
         weights: out
             .weights
             .map(|w| w.into_iter().map(|g| gray(py, g)).collect()),
-        normals_sigma: sigma.map(|g| gray(py, g)),
-        own_share: share.map(|g| gray(py, g)),
-    })
+        normals_sigma: out.normals_sigma.map(|g| gray(py, g)),
+        own_share: out.own_share.map(|g| gray(py, g)),
+    }
 }
 
-/// lambertian(images, lights, mask=None, robust=True) -> Result
+/// lambertian(images, lights, mask=None, robust=True, spatial=True) -> Result
+///
+/// [`photostereo::normals::solve`] with Lambertian least squares, as `photostereo
+/// normals --lambertian` (`spatial=False`: `--no-spatial`).
 #[pyfunction]
-#[pyo3(signature = (images, lights, mask=None, robust=true))]
+#[pyo3(signature = (images, lights, mask=None, robust=true, spatial=true))]
 pub fn lambertian(
     py: Python<'_>,
     images: PyReadonlyArray3<'_, f32>,
     lights: PyReadonlyArray2<'_, f32>,
     mask: Option<PyReadonlyArray2<'_, bool>>,
     robust: bool,
+    spatial: bool,
 ) -> PyResult<LookupResult> {
     let stack = convert::stack_from(&images, Vec::new())?;
     let lights = convert::lights_from(&lights)?;
     let mask = mask_or_full(mask, &stack);
-    let opts = if robust {
+    let lo = if robust {
         lamb::Options::default()
     } else {
         lamb::Options::plain()
     };
-    let out = crate::compute(py, move || lamb::solve(&stack, &mask, &lights, &opts))?;
-    Ok(LookupResult {
-        normals: convert::normals_to_py(py, out.normals).unbind(),
-        albedo: Some(gray(py, out.albedo)),
-        confidence: None,
-        residual: gray(py, out.residual),
-        weights: None,
-        normals_sigma: None,
-        own_share: None,
-    })
+    let opts = normals::Options {
+        spatial: spatial.then(Default::default),
+    };
+    let out = crate::compute(py, move || {
+        let input = normals::Input::Lambertian(&lights, &lo);
+        normals::solve(&stack, &mask, &input, &opts, &NoProgress)
+    })?;
+    Ok(result(py, out))
 }
 
 /// lights_from_sphere(images, mask=None, kind="chrome", circle=None) -> (K, 3) lights

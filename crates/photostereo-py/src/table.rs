@@ -1,9 +1,10 @@
 //! `Table` (a lookup table with the sphere detection it came from) and `calibrate`.
 
 use std::path::PathBuf;
+use std::sync::{Arc, OnceLock};
 
 use numpy::{PyReadonlyArray2, PyReadonlyArray3};
-use photostereo::image::GrayImage;
+use photostereo::image::{GrayImage, Mask};
 use photostereo::pipeline::Calibration;
 use photostereo::sphere::{Circle, DetectOptions, Detection};
 use photostereo::{io, lut, pipeline};
@@ -11,12 +12,51 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 use crate::convert;
+use crate::dataset::Dataset;
+use crate::funcs::LookupResult;
 
 /// A lookup table: intensity tuple → normal, from a calibration sphere.
 #[pyclass(module = "photostereo._native", frozen)]
 #[derive(Clone)]
 pub struct Table {
     pub cal: Calibration,
+    /// The lookup prepared from the table (search index, isolation radii, rim model),
+    /// without and with `normalize`: built at its first use, then reused by every
+    /// lookup with this table (not pickled: rebuilt after unpickling).
+    prepared: [OnceLock<Arc<lut::Lookup<'static>>>; 2],
+}
+
+/// The lookup's options for `normalize`, as `photostereo normals [--normalize]`: with
+/// it, brightness-normalised matching, or on a specular table the diffuse + specular
+/// fit ([`lut::options_for`]).
+pub fn lookup_options(normalize: bool) -> lut::Options {
+    lut::Options {
+        normalize,
+        split_if_specular: normalize,
+        ..lut::Options::default()
+    }
+}
+
+impl Table {
+    pub fn new(cal: Calibration) -> Self {
+        Table {
+            cal,
+            prepared: Default::default(),
+        }
+    }
+
+    /// The prepared lookup for `normalize` (built now if it was not yet; call it with
+    /// the GIL released).
+    pub fn prepared(&self, normalize: bool) -> photostereo::Result<Arc<lut::Lookup<'static>>> {
+        let slot = &self.prepared[usize::from(normalize)];
+        if let Some(l) = slot.get() {
+            return Ok(l.clone());
+        }
+        let tables = vec![self.cal.table.clone()];
+        let built = Arc::new(lut::Lookup::new(tables, &lookup_options(normalize))?);
+        // two threads may both build it: the first one stored is kept
+        Ok(slot.get_or_init(|| built).clone())
+    }
 }
 
 #[pymethods]
@@ -58,26 +98,35 @@ impl Table {
         self.cal.detection.as_ref().map(|d| d.rms_residual_px)
     }
 
-    /// lookup(target, *, mask=None, normalize=False, spatial=False) -> Result: normals of
+    /// lookup(target, *, mask=None, normalize=False, spatial=True) -> Result: normals of
     /// `target` (a Dataset, a dataset directory or a (K, H, W) array under the same
-    /// lights) by this table; see `photostereo.lookup`.
-    #[pyo3(signature = (target, *, mask=None, normalize=false, spatial=false))]
-    fn lookup<'py>(
-        slf: &Bound<'py, Self>,
-        py: Python<'py>,
-        target: Bound<'py, PyAny>,
-        mask: Option<Bound<'py, PyAny>>,
+    /// lights) by this table, as `photostereo normals --lut` (spatial=False:
+    /// `--no-spatial`); see `photostereo.lookup`. The table's search index is built at
+    /// the first lookup and reused.
+    #[pyo3(signature = (target, *, mask=None, normalize=false, spatial=true))]
+    fn lookup(
+        &self,
+        py: Python<'_>,
+        target: Bound<'_, PyAny>,
+        mask: Option<Bound<'_, PyAny>>,
         normalize: bool,
         spatial: bool,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        let kwargs = pyo3::types::PyDict::new(py);
-        kwargs.set_item("mask", mask)?;
-        kwargs.set_item("normalize", normalize)?;
-        kwargs.set_item("spatial", spatial)?;
-        let tables = pyo3::types::PyList::new(py, [slf])?;
-        py.import("photostereo")?
-            .getattr("lookup")?
-            .call((target, tables), Some(&kwargs))
+    ) -> PyResult<LookupResult> {
+        // the Python layer's argument handling (a Dataset, a path or an array; a mask array)
+        let api = py.import("photostereo")?;
+        let ds = api.getattr("_dataset")?.call1((target,))?;
+        let ds = ds.cast::<Dataset>()?.get();
+        let mask = match mask {
+            None => ds.mask_value(py),
+            Some(m) => {
+                let m = api.getattr("_mask")?.call1((m,))?;
+                let m: PyReadonlyArray2<'_, bool> = m.extract()?;
+                Some(convert::mask_from(&m))
+            }
+        };
+        let stack = ds.stack(py)?;
+        let mask = mask.unwrap_or_else(|| Mask::full(stack.width, stack.height));
+        crate::funcs::lookup_stack(py, stack, mask, &[self], normalize, Some(spatial))
     }
 
     /// Write the table file (the `.lut` format of `photostereo calibrate`), atomically.
@@ -90,12 +139,10 @@ impl Table {
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Table> {
         let table = crate::compute(py, move || io::read_table(&path))?;
-        Ok(Table {
-            cal: Calibration {
-                table,
-                detection: None,
-            },
-        })
+        Ok(Table::new(Calibration {
+            table,
+            detection: None,
+        }))
     }
 
     fn __repr__(&self) -> String {
@@ -155,9 +202,7 @@ impl Table {
                 },
             },
         );
-        Ok(Table {
-            cal: Calibration { table, detection },
-        })
+        Ok(Table::new(Calibration { table, detection }))
     }
 }
 
@@ -218,5 +263,5 @@ pub fn calibrate(
         ..Default::default()
     };
     let cal = crate::compute(py, move || pipeline::calibrate(&stack, mask, &opts))?;
-    Ok(Table { cal })
+    Ok(Table::new(cal))
 }

@@ -18,7 +18,7 @@ Example::
 
     import photostereo as ps
     table = ps.calibrate("data/sphere")             # find the sphere, build the table
-    res = table.lookup("data/vase")                 # normals (H, W, 3), confidence
+    res = table.lookup("data/vase")                 # as `photostereo normals --lut`
     depth = ps.integrate(res.normals, ps.load_dataset("data/vase").mask)
 """
 
@@ -167,25 +167,32 @@ def lookup(
     *,
     mask: Optional[np.ndarray] = None,
     normalize: bool = False,
-    spatial: bool = False,
+    spatial: Optional[bool] = None,
 ) -> Result:
-    """Normals of a target by table lookup (``photostereo normals --lut``).
+    """Normals of a target by table lookup, as ``photostereo normals --lut``.
 
     target: a Dataset, a dataset directory or a (K, H, W) float32 array, under the
         same K lights (same order) as the tables' sphere.
     tables: one Table, or two for a mixture of two materials (Hertzmann & Seitz:
         t = a I_A(n) + b I_B(n), a, b >= 0; the weights come back in ``.weights``).
     mask: (H, W) bool pixels to solve (default: the dataset's mask, else all).
-    normalize: fit an albedo relative to the sphere (``.albedo``), for albedo changes.
-    spatial: follow the lookup with the spatial stage, as ``photostereo normals`` does
-        by default (one table): pixels whose data say little take their normal from
-        their neighbours; ``.normals_sigma`` (degrees) and ``.own_share`` come back and
-        the confidence is multiplied by the own share. Default False: every pixel keeps
-        its own match (``normals --no-spatial``; ``lut::solve`` alone).
+    normalize: for albedo changes (``normals --normalize``): an albedo relative to the
+        sphere comes back (``.albedo``); brightness-normalised matching, or on a
+        specular table (more than 2% of its light not Lambertian) the diffuse +
+        specular fit.
+    spatial: the spatial stage after the lookup, as ``photostereo normals``: pixels
+        whose data say little take their normal from their neighbours; ``.own_share``
+        comes back and the confidence is multiplied by it. Default (None): on with one
+        table, off with two (it models one material; True with two tables is an
+        error). False: every pixel keeps its own match (``normals --no-spatial``).
+        ``.normals_sigma`` (degrees) comes back with one table either way.
+
+    The table's search index is built at its first lookup and reused by the next ones
+    (``Table.lookup`` is the same with one table).
 
     Returns a :class:`Result`: ``.normals`` (H, W, 3) float32, ``.confidence`` (H, W),
     ``.albedo`` (normalize only), ``.residual``, ``.weights`` (two tables),
-    ``.normals_sigma`` and ``.own_share`` (spatial only).
+    ``.normals_sigma`` and ``.own_share`` (spatial stage).
     """
     if isinstance(tables, Table):
         tables = [tables]
@@ -206,6 +213,7 @@ def lambertian(
     mask: Optional[np.ndarray] = None,
     *,
     robust: bool = True,
+    spatial: bool = True,
 ) -> Result:
     """Lambertian photometric stereo with known lights (``photostereo normals --lambertian``).
 
@@ -213,8 +221,10 @@ def lambertian(
     lights: (K, 3) unit directions (surface -> light); default: the dataset's.
     mask: (H, W) bool (default: the dataset's, else all pixels).
     robust: drop shadowed and highlight samples per pixel (False: plain least squares).
+    spatial: the spatial stage after the solve, as the CLI (False: ``--no-spatial``).
 
-    Returns a :class:`Result` with ``.normals`` (H, W, 3), ``.albedo`` (H, W), ``.residual``.
+    Returns a :class:`Result` with ``.normals`` (H, W, 3), ``.albedo`` (H, W),
+    ``.residual``, ``.normals_sigma`` and (spatial stage) ``.own_share``.
     """
     ds = _dataset(images)
     if lights is None:
@@ -222,7 +232,9 @@ def lambertian(
     if lights is None:
         raise ValueError("no light directions: pass lights=(K, 3) or a dataset with light_directions.txt")
     lights = _array(lights, "lights", "(K, 3)", 2, 3)
-    return _native.lambertian(ds.images, lights, mask=_mask(mask, ds.mask), robust=robust)
+    return _native.lambertian(
+        ds.images, lights, mask=_mask(mask, ds.mask), robust=robust, spatial=spatial
+    )
 
 
 def lights_from_sphere(

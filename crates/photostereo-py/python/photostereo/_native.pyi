@@ -71,7 +71,7 @@ class Result:
         """Two (H, W) mixture weights (a, b) with two tables, else None."""
     @property
     def normals_sigma(self) -> Optional[F32]:
-        """(H, W) angular standard error (degrees) of each normal from its own data (lookup with spatial=True)."""
+        """(H, W) angular standard error (degrees) of each normal from its own data (None with two tables)."""
     @property
     def own_share(self) -> Optional[F32]:
         """(H, W) share in [0, 1] of each pixel's own data in its normal (spatial stage)."""
@@ -102,10 +102,11 @@ class Table:
         *,
         mask: Optional[Bool] = None,
         normalize: bool = False,
-        spatial: bool = False,
+        spatial: bool = True,
     ) -> Result:
-        """Normals of target (a Dataset, directory or (K, H, W) array) by this table;
-        spatial=True adds the spatial stage (as ``photostereo normals`` by default)."""
+        """Normals of target (a Dataset, directory or (K, H, W) array) by this table, as
+        ``photostereo normals --lut``; spatial=False leaves out the spatial stage. The
+        search index is built at the first lookup and reused."""
     def save(self, path: PathLike) -> None:
         """Write the .lut file (as ``photostereo calibrate``), atomically."""
     @staticmethod
@@ -135,13 +136,20 @@ def lookup(
     tables: Sequence[Table],
     mask: Optional[Bool] = None,
     normalize: bool = False,
-    spatial: bool = False,
+    spatial: Optional[bool] = None,
 ) -> Result:
-    """Normals of (K, H, W) images by one table, or two for a mixture; spatial=True
-    adds the spatial stage (one table)."""
+    """Normals of (K, H, W) images by one table, or two for a mixture; the spatial
+    stage follows with one table unless spatial=False (True with two is an error)."""
 
-def lambertian(images: F32, lights: F32, mask: Optional[Bool] = None, robust: bool = True) -> Result:
-    """Lambertian photometric stereo with known (K, 3) lights."""
+def lambertian(
+    images: F32,
+    lights: F32,
+    mask: Optional[Bool] = None,
+    robust: bool = True,
+    spatial: bool = True,
+) -> Result:
+    """Lambertian photometric stereo with known (K, 3) lights, then the spatial stage
+    unless spatial=False."""
 
 def lights_from_sphere(
     images: F32,
