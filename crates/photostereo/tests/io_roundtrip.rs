@@ -291,3 +291,55 @@ fn failed_atomic_write_leaves_nothing_and_keeps_the_old_file() {
     assert!(io::write_mask_png(&dir.join("e.png"), &empty).is_err());
     assert!(!dir.join("e.png").exists());
 }
+
+/// Files in other layouts than the one this program writes (float64, Fortran order,
+/// big-endian) read to the same values as the plain float32 C-order file, which is
+/// read without ndarray's copy.
+#[test]
+fn npy_layouts_read_alike() {
+    use ndarray::{Array2, Array3, ShapeBuilder};
+    use ndarray_npy::WriteNpyExt;
+    let dir = tmp_dir("npy-layouts");
+    let (h, w) = (3, 5);
+    let value = |r: usize, c: usize, k: usize| (r * 100 + c * 10 + k) as f32 * 0.25 - 7.0;
+    let write = |name: &str, a: &dyn Fn(&mut std::fs::File)| {
+        let path = dir.join(name);
+        a(&mut std::fs::File::create(&path).unwrap());
+        path
+    };
+    let c_order = Array3::from_shape_fn((h, w, 3), |(r, c, k)| value(r, c, k));
+    let fortran = Array3::from_shape_fn((h, w, 3).f(), |(r, c, k)| value(r, c, k));
+    let double = c_order.mapv(f64::from);
+    let paths = [
+        write("c.npy", &|f| c_order.write_npy(f).unwrap()),
+        write("f.npy", &|f| fortran.write_npy(f).unwrap()),
+        write("d.npy", &|f| double.write_npy(f).unwrap()),
+    ];
+    let maps: Vec<_> = paths
+        .iter()
+        .map(|p| io::read_normals_npy(p).unwrap())
+        .collect();
+    for m in &maps {
+        assert_eq!((m.width, m.height), (w, h));
+        for (i, n) in m.data.iter().enumerate() {
+            let (r, c) = (i / w, i % w);
+            assert_eq!(*n, [value(r, c, 0), value(r, c, 1), value(r, c, 2)]);
+        }
+    }
+    // big-endian float32: the header's descr is '>f4'
+    let mut be = Vec::new();
+    let header = format!("{{'descr': '>f4', 'fortran_order': False, 'shape': ({h}, {w}), }}");
+    let pad = 64 - (10 + header.len() + 1) % 64;
+    be.extend_from_slice(b"\x93NUMPY\x01\x00");
+    be.extend_from_slice(&((header.len() + pad + 1) as u16).to_le_bytes());
+    be.extend_from_slice(header.as_bytes());
+    be.extend(std::iter::repeat_n(b' ', pad));
+    be.push(b'\n');
+    let gray = Array2::from_shape_fn((h, w), |(r, c)| value(r, c, 0));
+    for v in gray.iter() {
+        be.extend_from_slice(&v.to_be_bytes());
+    }
+    std::fs::write(dir.join("be.npy"), &be).unwrap();
+    let back = io::read_gray_npy(&dir.join("be.npy")).unwrap();
+    assert_eq!(back.data, gray.iter().copied().collect::<Vec<_>>());
+}

@@ -9,7 +9,7 @@ use super::limits;
 use super::{read_file, write_atomic};
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, Mask, NormalMap};
-use ndarray::{Array2, Array3, ArrayD};
+use ndarray::{Array2, ArrayD, ArrayView2, ArrayView3};
 use ndarray_npy::{ReadNpyExt, ReadableElement, WriteNpyExt};
 use std::path::Path;
 
@@ -32,6 +32,9 @@ fn read_checked(path: &Path) -> Result<Vec<u8>> {
 struct Claim {
     item: u64,
     shape: Vec<u64>,
+    /// Little-endian float32 in C order (`'<f4'`, `fortran_order: False`): the layout
+    /// this program writes, read without ndarray's copy ([`read_plain`]).
+    plain_f32: bool,
 }
 
 /// Check the header of an `.npy` file against its length and the limits.
@@ -99,6 +102,7 @@ fn parse_header(bytes: &[u8]) -> std::result::Result<(Claim, usize), String> {
     let claim = Claim {
         item: item_size(text)?,
         shape: shape(text)?,
+        plain_f32: is_plain_f32(text),
     };
     Ok((claim, end))
 }
@@ -154,13 +158,39 @@ fn shape(text: &str) -> std::result::Result<Vec<u64>, String> {
         .collect()
 }
 
-/// Read an n-dimensional array of `f32`, accepting float32 or float64 files.
-fn read_f32_array(path: &Path) -> Result<ArrayD<f32>> {
-    let bytes = read_checked(path)?;
-    if let Ok(a) = ArrayD::<f32>::read_npy(&bytes[..]) {
+/// Whether the header says little-endian float32 in C order.
+fn is_plain_f32(text: &str) -> bool {
+    let starts =
+        |key, with: &[&str]| entry(text, key).is_ok_and(|v| with.iter().any(|w| v.starts_with(w)));
+    starts("descr", &["'<f4'", "\"<f4\""]) && starts("fortran_order", &["False"])
+}
+
+/// The shape and the elements (`T`: f32 or [f32; 3], plain old data) of a checked
+/// little-endian float32 C-order file, copied once from the file's bytes; `None` for
+/// any other layout, or when the last axis does not fit `T`, or on a big-endian machine.
+fn read_plain<T: bytemuck::Pod>(bytes: &[u8]) -> Option<(Vec<usize>, Vec<T>)> {
+    if cfg!(target_endian = "big") {
+        return None;
+    }
+    let (claim, start) = parse_header(bytes).ok()?;
+    let data = &bytes[start..];
+    let size = std::mem::size_of::<T>();
+    if !claim.plain_f32 || size == 0 || data.len() % size != 0 {
+        return None;
+    }
+    let mut out = vec![T::zeroed(); data.len() / size];
+    bytemuck::cast_slice_mut::<T, u8>(&mut out).copy_from_slice(data);
+    let shape = claim.shape.iter().map(|&d| d as usize).collect();
+    Some((shape, out))
+}
+
+/// An n-dimensional array of `f32` from the checked bytes of `path`, accepting float32
+/// or float64 files in any layout.
+fn read_f32_bytes(path: &Path, bytes: &[u8]) -> Result<ArrayD<f32>> {
+    if let Ok(a) = ArrayD::<f32>::read_npy(bytes) {
         return Ok(a);
     }
-    match ArrayD::<f64>::read_npy(&bytes[..]) {
+    match ArrayD::<f64>::read_npy(bytes) {
         Ok(a) => Ok(a.mapv(|v| v as f32)),
         Err(e) => Err(decode_error(path, e, "a float32 or float64 array")),
     }
@@ -182,7 +212,13 @@ fn shape_error(path: &Path, shape: &[usize], expected: &str) -> Error {
 
 /// Read a normal map stored as an (H, W, 3) float array.
 pub fn read_normals_npy(path: &Path) -> Result<NormalMap> {
-    let a = read_f32_array(path)?;
+    let bytes = read_checked(path)?;
+    if let Some((shape, data)) = read_plain::<[f32; 3]>(&bytes) {
+        if let [h, w, 3] = shape[..] {
+            return Image::from_vec(w, h, data);
+        }
+    }
+    let a = read_f32_bytes(path, &bytes)?;
     let shape = a.shape().to_vec();
     if shape.len() != 3 || shape[2] != 3 {
         return Err(shape_error(path, &shape, "(H, W, 3)"));
@@ -200,7 +236,13 @@ pub fn read_normals_npy(path: &Path) -> Result<NormalMap> {
 /// Read a gray image or depth map stored as an (H, W) float array (an (H, W, 1) array
 /// is accepted too).
 pub fn read_gray_npy(path: &Path) -> Result<GrayImage> {
-    let a = read_f32_array(path)?;
+    let bytes = read_checked(path)?;
+    if let Some((shape, data)) = read_plain::<f32>(&bytes) {
+        if let [h, w] | [h, w, 1] = shape[..] {
+            return Image::from_vec(w, h, data);
+        }
+    }
+    let a = read_f32_bytes(path, &bytes)?;
     let shape = a.shape().to_vec();
     let ok = shape.len() == 2 || (shape.len() == 3 && shape[2] == 1);
     if !ok {
@@ -242,15 +284,15 @@ fn write_array<A: WriteNpyExt + ?Sized>(path: &Path, array: &A) -> Result<()> {
 
 /// Write a normal map as float32 (H, W, 3) `.npy` (atomic).
 pub fn write_normals(path: &Path, normals: &NormalMap) -> Result<()> {
-    let flat: Vec<f32> = normals.data.iter().flatten().copied().collect();
-    let a = Array3::from_shape_vec((normals.height, normals.width, 3), flat)
+    let flat: &[f32] = bytemuck::cast_slice(&normals.data);
+    let a = ArrayView3::from_shape((normals.height, normals.width, 3), flat)
         .map_err(|e| super::encode_error(path, e))?;
     write_array(path, &a)
 }
 
 /// Write a gray image or depth map as float32 (H, W) `.npy` (atomic); NaN stays NaN.
 pub fn write_gray_npy(path: &Path, img: &GrayImage) -> Result<()> {
-    let a = Array2::from_shape_vec((img.height, img.width), img.data.clone())
+    let a = ArrayView2::from_shape((img.height, img.width), &img.data[..])
         .map_err(|e| super::encode_error(path, e))?;
     write_array(path, &a)
 }

@@ -469,16 +469,49 @@ pub fn write_colormap_png(
         .or_else(|| finite_range(inside_values))
         .unwrap_or((0.0, 1.0));
     let span = if hi > lo { hi - lo } else { 1.0 };
-    let mut data = Vec::with_capacity(img.len() * 3);
-    for (i, &v) in img.data.iter().enumerate() {
-        let rgb = if inside(mask, i) && v.is_finite() {
-            turbo((v - lo) / span)
-        } else {
-            [0; 3]
-        };
-        data.extend_from_slice(&rgb);
-    }
+    let data = colour_rows(img, mask, |v| turbo_table((v - lo) / span));
     save_png::<Rgb<u8>>(path, img.width, img.height, data)
+}
+
+/// RGB bytes of `img` by `colour`, rows in parallel; NaN and pixels outside `mask` black.
+fn colour_rows(
+    img: &GrayImage,
+    mask: Option<&Mask>,
+    colour: impl Fn(f32) -> [u8; 3] + Sync,
+) -> Vec<u8> {
+    use rayon::prelude::*;
+    let row = img.width * 3;
+    let mut data = vec![0u8; img.len() * 3];
+    data.par_chunks_mut(row.max(1))
+        .enumerate()
+        .for_each(|(r, out)| {
+            for (c, px) in out.chunks_exact_mut(3).enumerate() {
+                let i = r * img.width + c;
+                let v = img.data[i];
+                if inside(mask, i) && v.is_finite() {
+                    px.copy_from_slice(&colour(v));
+                }
+            }
+        });
+    data
+}
+
+/// Entries of [`turbo_table`]: 4096 steps of t, finer than the 256 levels of a colour.
+const TURBO_STEPS: usize = 4096;
+
+/// [`turbo`] read from a table of [`TURBO_STEPS`] entries (t rounded to the nearest
+/// step: at most one level off the exact map), so that a large picture costs no
+/// polynomial and no rounding call per pixel.
+fn turbo_table(t: f32) -> [u8; 3] {
+    static TABLE: std::sync::OnceLock<Vec<[u8; 3]>> = std::sync::OnceLock::new();
+    let table = TABLE.get_or_init(|| {
+        (0..TURBO_STEPS)
+            .map(|i| turbo(i as f32 / (TURBO_STEPS - 1) as f32))
+            .collect()
+    });
+    // t in [0, 1] after the clamp (NaN gives 0): `as` truncates, + 0.5 rounds
+    let i = (t.clamp(0.0, 1.0) * (TURBO_STEPS - 1) as f32 + 0.5) as usize;
+    table[i.min(TURBO_STEPS - 1)]
 }
 
 /// Write a false-colour picture of a depth map (far = blue, near = red), scaled to
@@ -531,4 +564,24 @@ pub(crate) fn check_consistent(
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_turbo_table_is_within_one_level_of_the_map() {
+        for i in 0..=100_000 {
+            let t = i as f32 / 100_000.0;
+            let (a, b) = (turbo(t), turbo_table(t));
+            for (x, y) in a.iter().zip(&b) {
+                assert!(x.abs_diff(*y) <= 1, "t {t}: {a:?} vs {b:?}");
+            }
+        }
+        assert_eq!(turbo_table(0.0), turbo(0.0));
+        assert_eq!(turbo_table(1.0), turbo(1.0));
+        assert_eq!(turbo_table(-3.0), turbo(0.0));
+        assert_eq!(turbo_table(f32::NAN), turbo(0.0));
+    }
 }
