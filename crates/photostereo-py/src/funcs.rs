@@ -361,10 +361,11 @@ pub fn interreflect<'py>(
 
 /// run(target, out, sphere=None, table=None, lambertian=False, lights=None, chrome=None,
 /// mask=None, image_scale=None, interreflections=False, method=None, spatial=True,
-/// block=None, response=None) -> run.json text (response: "linear", "srgb", "gamma=G";
-/// None = sRGB for JPEG files, linear otherwise)
+/// block=None, response=None, memory=None) -> run.json text (response: "linear", "srgb",
+/// "gamma=G"; None = sRGB for JPEG files, linear otherwise; memory: the run's budget,
+/// e.g. "2G" or a number of bytes; None = half of the machine's memory)
 #[pyfunction]
-#[pyo3(signature = (target, out, sphere=None, table=None, lambertian=false, lights=None, chrome=None, mask=None, image_scale=None, interreflections=false, method=None, spatial=true, block=None, response=None))]
+#[pyo3(signature = (target, out, sphere=None, table=None, lambertian=false, lights=None, chrome=None, mask=None, image_scale=None, interreflections=false, method=None, spatial=true, block=None, response=None, memory=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     py: Python<'_>,
@@ -382,6 +383,7 @@ pub fn run(
     spatial: bool,
     block: Option<usize>,
     response: Option<&str>,
+    memory: Option<&str>,
 ) -> PyResult<String> {
     let inputs = pipeline::Inputs {
         target,
@@ -410,6 +412,10 @@ pub fn run(
         ..opts
     };
     opts.nik.radiosity.block = block.unwrap_or(0);
+    opts.memory = memory
+        .map(photostereo::plan::parse_size)
+        .transpose()
+        .map_err(crate::to_py)?;
     let done = crate::compute(py, move || pipeline::run(&inputs, &out, &opts, &NoProgress))?;
     Ok(done.json.to_string())
 }

@@ -401,6 +401,7 @@ def run(
     mask: Optional[PathLike] = None,
     spatial: bool = True,
     block: Optional[int] = None,
+    memory: Union[int, str, None] = None,
 ) -> dict:
     """The whole job on a dataset directory, as ``photostereo run`` (same outputs).
 
@@ -416,6 +417,9 @@ def run(
     spatial: the spatial stage after the normals (default on, as the CLI): pixels whose
         data say little take their normal from their neighbours (``--no-spatial``: False).
     block: facet size in pixels for interreflections (default: chosen from the size).
+    memory: the run's memory budget, bytes or a size such as "2G" (``run --memory``):
+        the images are read by row bands sized to it; a capture that cannot fit stops
+        before any pixel is read. Default: half of the machine's memory.
 
     Writes normals.npy/png, albedo, confidence, depth.npy/png, mesh.ply, run.json,
     report.html into ``out``; returns what run.json holds (a dict).
@@ -442,5 +446,6 @@ def run(
         method=method,
         spatial=spatial,
         block=block,
+        memory=None if memory is None else str(memory),
     )
     return json.loads(text)

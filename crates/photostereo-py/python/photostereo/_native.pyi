@@ -198,5 +198,6 @@ def run(
     spatial: bool = True,
     block: Optional[int] = None,
     response: Optional[str] = None,
+    memory: Optional[str] = None,
 ) -> str:
     """The whole ``photostereo run``; returns the run.json text."""

@@ -7,7 +7,9 @@ The calibration table is built once (here) and shipped to every worker; each tar
 outputs go to ``out/<target's folder name>/``; the results are what single-process
 ``photostereo.run(target, out/<name>, sphere=...)`` gives. A worker that dies mid-run is
 survived: Dask runs its task again elsewhere, and no half-written file is left (every
-file is written to a temporary name and renamed when complete).
+file is written to a temporary name and renamed when complete). Each run keeps within
+its worker's memory: the worker's limit shared among its threads (one target per thread
+at a time) is the run's ``memory`` budget, so the images are read by bands that fit it.
 
 From the shell (``pip install ./crates/photostereo-py[dask]``)::
 
@@ -45,6 +47,23 @@ def _run_one(target: str, out: str, table: Optional[Table], options: dict) -> di
     return _run(target, out, **options)
 
 
+def _identity(x: Any) -> Any:
+    """The calibration table as a task's result (see :func:`run_many`)."""
+    return x
+
+
+def _task_budget(client: Any) -> Optional[int]:
+    """Bytes one task may use: the smallest worker memory limit divided by that worker's
+    threads (tasks run one per thread); None when a worker has no limit."""
+    workers = client.scheduler_info().get("workers", {}).values()
+    budgets = [
+        int(w["memory_limit"]) // max(int(w.get("nthreads", 1)), 1)
+        for w in workers
+        if w.get("memory_limit")
+    ]
+    return min(budgets) if budgets and len(budgets) == len(workers) else None
+
+
 def _out_dirs(targets: Sequence[PathLike], out: PathLike) -> list[str]:
     names = [Path(os.fspath(t)).resolve().name for t in targets]
     seen: dict[str, str] = {}
@@ -64,6 +83,7 @@ def run_many(
     *,
     sphere: Union[PathLike, Table, None] = None,
     client: Any = None,
+    memory: Union[int, str, None] = None,
     **options: Any,
 ) -> list:
     """Run ``photostereo.run`` on every target on a Dask cluster; returns the run.json
@@ -74,7 +94,11 @@ def run_many(
     sphere: calibration sphere directory or a Table: the table is built once, here,
         and shipped to the workers. None for Lambertian runs (``lambertian=True``).
     client: a ``dask.distributed.Client``; None starts a LocalCluster (one worker
-        process per core, one thread each) for this call.
+        process per core, one thread each, the machine's memory shared among them) for
+        this call.
+    memory: each run's memory budget (bytes or "2G"); default: its worker's memory
+        limit divided by the worker's threads (the run's own default where workers have
+        no limit).
     options: the keyword options of :func:`photostereo.run` (lambertian, lights,
         chrome, interreflections, image_scale, method, mask).
 
@@ -95,9 +119,15 @@ def run_many(
         )
         client = Client(cluster)
     try:
+        budget = memory if memory is not None else _task_budget(client)
+        if budget is not None:
+            options = {**options, "memory": budget}
         shipped = None
         if table is not None:
-            shipped = client.scatter(table, broadcast=True, hash=False)
+            # a task, not `scatter`: scattered data has no recipe, so once every worker
+            # holding it is killed the runs that need it are cancelled; a task's result
+            # is computed again from the table the scheduler keeps
+            shipped = client.submit(_identity, table, pure=False)
         futures = [
             client.submit(_run_one, t, d, shipped, dict(options), pure=False)
             for t, d in zip(targets, dirs)
