@@ -156,6 +156,8 @@ fn a_sphere_of_another_material_gives_a_loud_warning() {
     let w = j["warnings"][0].as_str().unwrap_or_default();
     // measured: 100% of the mask below 0.5, mean confidence 0.005
     assert!(w.contains("low confidence: 100% of the mask"), "{w}");
+    // the warning's code, beside its message (issue 25 item 4)
+    assert_eq!(j["warning_codes"][0], "low_confidence");
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     let (warn, view) = (
         html.find("id=\"ps-warnings\""),
@@ -247,6 +249,9 @@ fn interreflections_without_an_image_scale_warn() {
         let j = json(&out.join("run.json"));
         let n = j["warnings"].as_array().map_or(0, Vec::len);
         assert_eq!(n, usize::from(warned));
+        if warned {
+            assert_eq!(j["warning_codes"][0], "image_scale_unknown");
+        }
     }
 }
 

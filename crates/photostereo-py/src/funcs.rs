@@ -361,14 +361,14 @@ pub fn interreflect<'py>(
 
 /// run(target, out, sphere=None, table=None, lambertian=False, lights=None, chrome=None,
 /// mask=None, image_scale=None, interreflections=False, method=None, spatial=True,
-/// block=None, response=None, memory=None) -> run.json text (response: "linear", "srgb",
-/// "gamma=G"; None = sRGB for JPEG files, linear otherwise; memory: the run's budget,
-/// e.g. "2G" or a number of bytes; None = half of the machine's memory)
+/// block=None, response=None, memory=None) -> dict: what run.json holds (response:
+/// "linear", "srgb", "gamma=G"; None = sRGB for JPEG files, linear otherwise; memory: the
+/// run's budget, e.g. "2G" or a number of bytes; None = half of the machine's memory)
 #[pyfunction]
 #[pyo3(signature = (target, out, sphere=None, table=None, lambertian=false, lights=None, chrome=None, mask=None, image_scale=None, interreflections=false, method=None, spatial=true, block=None, response=None, memory=None))]
 #[allow(clippy::too_many_arguments)]
-pub fn run(
-    py: Python<'_>,
+pub fn run<'py>(
+    py: Python<'py>,
     target: PathBuf,
     out: PathBuf,
     sphere: Option<PathBuf>,
@@ -384,7 +384,7 @@ pub fn run(
     block: Option<usize>,
     response: Option<&str>,
     memory: Option<&str>,
-) -> PyResult<String> {
+) -> PyResult<Bound<'py, PyAny>> {
     let inputs = pipeline::Inputs {
         target,
         sphere,
@@ -417,5 +417,6 @@ pub fn run(
         .transpose()
         .map_err(crate::to_py)?;
     let done = crate::compute(py, move || pipeline::run(&inputs, &out, &opts, &NoProgress))?;
-    Ok(done.json.to_string())
+    // the dict is made from the typed summary, as run.json is (no text parsed back)
+    convert::json_to_py(py, &done.summary.to_json())
 }

@@ -11,6 +11,21 @@ use serde::{Deserialize, Serialize};
 pub enum WarningCode {
     /// The spatial stage did not run (e.g. a mixture of two tables).
     SpatialStageSkipped,
+    /// Most of the mask has a lookup confidence below 0.5: the sphere's intensities do
+    /// not cover the target's (another material, other lights or exposures).
+    LowConfidence,
+    /// Interreflection removal on images whose radiance scale nobody gave.
+    ImageScaleUnknown,
+    /// A given sphere circle does not follow the sphere's rim.
+    GivenCircleOffRim,
+    /// The calibration "sphere"'s outline leaves its circle: not a sphere.
+    NotASphere,
+    /// The chrome sphere's brightest spots are too wide for mirror highlights.
+    NotAMirror,
+    /// Most pixels took their normal from their neighbours in the spatial stage.
+    MostlyFromNeighbours,
+    /// Target pixels where the sphere is searched (one folder) were left out of the mask.
+    SphereLeftOutOfMask,
     /// Anything not (yet) given its own code.
     Other,
 }

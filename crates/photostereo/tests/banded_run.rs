@@ -82,15 +82,15 @@ fn compare(inputs: &Inputs, out: &Path, band_rows: usize) -> String {
     assert_eq!(whole.method, banded.method);
     let acc = |o: &pipeline::Output| o.accuracy.angular.as_ref().unwrap().0.mean;
     assert!((acc(&whole) - acc(&banded)).abs() < 1e-9);
-    let images = banded.figures.iter().find(|r| r.0 == "images").unwrap();
+    let images = banded.figures.iter().find(|r| r.name == "images").unwrap();
     assert_eq!(
-        images.1, "12 of 96×80",
+        images.value, "12 of 96×80",
         "the images' own size, not the thumbnails'"
     );
-    let stage = banded.figures.iter().find(|r| r.0 == "spatial stage");
-    let whole_stage = whole.figures.iter().find(|r| r.0 == "spatial stage");
+    let stage = banded.figures.iter().find(|r| r.name == "spatial stage");
+    let whole_stage = whole.figures.iter().find(|r| r.name == "spatial stage");
     assert_eq!(stage, whole_stage);
-    stage.map(|r| r.1.clone()).unwrap_or_default()
+    stage.map(|r| r.value.clone()).unwrap_or_default()
 }
 
 #[test]

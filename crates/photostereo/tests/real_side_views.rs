@@ -155,13 +155,13 @@ fn raster(img: &mut image::RgbImage, zbuf: &mut [f64], t: [[f64; 3]; 3], grey: u
 
 /// The integrator row of the figures, with the seconds of the integration stage.
 fn integrator(out: &pipeline::Output) -> String {
-    let row = out.figures.iter().find(|r| r.0 == "integrator");
+    let row = out.figures.iter().find(|r| r.name == "integrator");
     let secs = out
         .stages
         .iter()
         .find(|s| s.0 == "integration")
         .map_or(0.0, |s| s.1);
-    format!("{} [{secs:.2} s]", row.map_or("?", |r| r.1.as_str()))
+    format!("{} [{secs:.2} s]", row.map_or("?", |r| r.value.as_str()))
 }
 
 #[test]

@@ -165,22 +165,20 @@ pub fn run(mut args: Args, global: Global) -> Result<()> {
     // a sphere not found: main's hint names --sphere-region, --sphere-mask and --circle,
     // which `run` takes as `calibrate` does
     let done = pipeline::run(&inputs, &args.out, &opts, &Bar::new(global.quiet))?;
-    if !global.quiet {
-        for (k, v) in &done.output.figures {
-            println!("{k:>36}: {v}");
-        }
-        println!("report: {}", done.report.display());
+    if global.quiet {
+        return Ok(());
     }
-    let stale = done.json["stale_removed"]
-        .as_array()
-        .cloned()
-        .unwrap_or_default();
-    if !stale.is_empty() && !global.quiet {
-        let names: Vec<&str> = stale.iter().filter_map(|v| v.as_str()).collect();
+    // the terminal table is run.json's summary, in the report's order
+    let summary = &done.summary;
+    for f in &summary.figures {
+        println!("{:>36}: {}", f.name, f.value);
+    }
+    println!("report: {}", done.report.display());
+    if !summary.stale_removed.is_empty() {
         println!(
             "removed from {} the files of an earlier run that this run does not write: {}",
             args.out.display(),
-            names.join(", ")
+            summary.stale_removed.join(", ")
         );
     }
     Ok(())

@@ -24,7 +24,6 @@ Example::
 
 from __future__ import annotations
 
-import json
 import os
 from typing import Any, Optional, Sequence, Union
 
@@ -426,7 +425,7 @@ def run(
     """
     table = sphere if isinstance(sphere, Table) else None
     sphere_path = None if sphere is None or table is not None else os.fspath(sphere)
-    text = _native.run(
+    return _native.run(
         os.fspath(target),
         os.fspath(out),
         sphere=sphere_path,
@@ -448,4 +447,3 @@ def run(
         block=block,
         memory=None if memory is None else str(memory),
     )
-    return json.loads(text)

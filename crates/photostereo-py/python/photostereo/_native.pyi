@@ -199,5 +199,5 @@ def run(
     block: Optional[int] = None,
     response: Optional[str] = None,
     memory: Optional[str] = None,
-) -> str:
-    """The whole ``photostereo run``; returns the run.json text."""
+) -> dict:
+    """The whole ``photostereo run``; returns what run.json holds (a dict)."""

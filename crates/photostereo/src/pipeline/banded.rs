@@ -19,7 +19,7 @@ use super::load::{check, leave_out_sphere, lights, radiance_scale, scale_is_know
 use super::spatial_stage::{adopt, own_only, SpatialInfo};
 use super::stages;
 use super::timer::Stages;
-use super::{Estimate, Inputs, Job, Normals, Options, Run, Titles, Truth};
+use super::{Estimate, Figure, Inputs, Job, Normals, Options, Run, Titles, Truth};
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
 use crate::io::{self, DatasetBands};
@@ -28,6 +28,7 @@ use crate::spatial::{self, info::Evidence, Censor, NoiseModel, NoiseSampler};
 
 /// The sensor's evidence model: the noise and the censoring bounds of the capture.
 type Model<'a> = (&'a NoiseModel, &'a Censor);
+use crate::warning::{Warning, WarningCode};
 use crate::{lambertian, lut, plan};
 
 /// Longest side of the decimated copy of the images kept for the report's thumbnails.
@@ -186,7 +187,8 @@ pub(super) fn run(
             let t = Instant::now();
             let (lights, det) = lights(inputs, ds.lights.clone(), &file_names(&ds), progress)?;
             if let Some((det, mirror)) = det {
-                warnings.extend(mirror.warning());
+                let code = WarningCode::NotAMirror;
+                warnings.extend(mirror.warning().map(|m| Warning::new(code, m)));
                 chrome = Some(det);
             }
             stages.push(("lights".to_string(), t.elapsed().as_secs_f64()));
@@ -206,14 +208,16 @@ pub(super) fn run(
     crate::io::memtrace::mark("before the stages");
     let (job, mut output) = solve(&mut cap, normals, &inputs.target, opts, progress)?;
     if let Some((scale, from)) = image_scale {
-        output
-            .figures
-            .push(("image scale (images ×)".into(), format!("{scale} ({from})")));
+        output.figures.push(Figure::new(
+            "image scale (images ×)",
+            format!("{scale} ({from})"),
+        ));
     }
     // read by bands only when linear (io::readable_by_bands)
-    output
-        .figures
-        .push(("image response".into(), io::Response::Linear.to_string()));
+    output.figures.push(Figure::new(
+        "image response",
+        io::Response::Linear.to_string(),
+    ));
     output.chrome = chrome;
     for w in &warnings {
         progress.note(&format!("warning: {w}"));
@@ -228,7 +232,7 @@ pub(super) fn run(
     Ok(Run {
         output,
         report: written.report,
-        json: written.json,
+        summary: written.summary,
     })
 }
 
@@ -305,8 +309,8 @@ fn solve(
         truth,
     };
     let mut output = super::finish(st, &job, opts, method, (est, circle, None))?;
-    for row in output.figures.iter_mut().filter(|r| r.0 == "images") {
-        row.1 = format!("{k} of {w}×{h}");
+    for row in output.figures.iter_mut().filter(|r| r.name == "images") {
+        row.value = format!("{k} of {w}×{h}");
     }
     Ok((job, output))
 }

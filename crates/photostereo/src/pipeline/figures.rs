@@ -1,9 +1,9 @@
 //! The figures of a run: the rows of the report and of `run.json`.
 
-use serde_json::{json, Value};
-
-use super::{Accuracy, Estimate, Interreflections, Job, Output};
+use super::summary::Figure;
+use super::{Accuracy, Estimate, Interreflections, Job};
 use crate::image::{DepthMap, GrayImage, Mask};
+use crate::warning::{Warning, WarningCode};
 use crate::{integrate, mesh, sphere};
 
 /// The title (the dataset's name) and subtitle (how it was solved) of a report.
@@ -52,39 +52,35 @@ pub fn masked_mean(img: &GrayImage, mask: &Mask) -> f32 {
 /// What the pictures `albedo.png` and `depth.png` (and the report's) show: the albedo's
 /// white level and the depth's colour range ([`crate::picture::albedo_picture`],
 /// [`crate::picture::depth_picture`]).
-pub(super) fn picture_rows(
-    job: &Job,
-    albedo: Option<&GrayImage>,
-    depth: &DepthMap,
-) -> Vec<(String, String)> {
+pub(super) fn picture_rows(job: &Job, albedo: Option<&GrayImage>, depth: &DepthMap) -> Vec<Figure> {
     use crate::picture as raster;
     let mask = Some(&job.mask);
     let mut f = Vec::new();
     if let Some(a) = albedo {
         let white = raster::albedo_white(a, mask);
-        f.push((
-            "albedo.png white level".into(),
+        f.push(Figure::new(
+            "albedo.png white level",
             format!("{white:.3} (99th percentile; black = 0)"),
         ));
     }
     let (_, (lo, hi)) = raster::depth_picture(depth, mask);
-    f.push((
-        "depth.png colour range (px)".into(),
+    f.push(Figure::new(
+        "depth.png colour range (px)",
         format!("{lo:.2} far, dark → {hi:.2} near, yellow (viridis, 1st → 99th percentile)"),
     ));
     f
 }
 
 /// The curvature row: its scale and the picture's colour range.
-pub(super) fn curvature_row(c: &crate::curvature::Curvature) -> (String, String) {
+pub(super) fn curvature_row(c: &crate::curvature::Curvature) -> Figure {
     let (med, lim) = (c.median_abs_mean, c.display_limit);
     let radius = if med > 0.0 {
         format!(" (a sphere of radius {:.0} px)", 1.0 / med)
     } else {
         String::new()
     };
-    (
-        "mean curvature (1/px)".into(),
+    Figure::new(
+        "mean curvature (1/px)",
         format!(
             "median |H| {med:.2e}{radius}; curvature.png: blue −{lim:.2e} → red +{lim:.2e} \
              (99th percentile of |H|)"
@@ -98,7 +94,7 @@ pub const LOW_CONFIDENCE: f32 = 0.5;
 /// The warnings of a job: a lookup whose confidence is below [`LOW_CONFIDENCE`] over most
 /// of the mask (the sphere's intensities do not cover the target's), and interreflection
 /// removal on images whose radiance scale nobody gave.
-pub fn warnings(job: &Job, confidence: Option<&GrayImage>, opts: &super::Options) -> Vec<String> {
+pub fn warnings(job: &Job, confidence: Option<&GrayImage>, opts: &super::Options) -> Vec<Warning> {
     let mut w = Vec::new();
     if let Some(c) = confidence {
         let inside: Vec<f32> = c
@@ -110,7 +106,10 @@ pub fn warnings(job: &Job, confidence: Option<&GrayImage>, opts: &super::Options
             .collect();
         let low = inside.iter().filter(|&&v| v < LOW_CONFIDENCE).count();
         if !inside.is_empty() && 2 * low > inside.len() {
-            w.push(format!(
+            let code = WarningCode::LowConfidence;
+            w.push(Warning::new(
+                code,
+                format!(
                 "low confidence: {:.0}% of the mask has a lookup confidence below {LOW_CONFIDENCE} \
                  (mean {:.3}). The sphere's intensities do not cover the target's: the sphere is \
                  probably not of the target's material, or not under the same lights, or the \
@@ -119,19 +118,20 @@ pub fn warnings(job: &Job, confidence: Option<&GrayImage>, opts: &super::Options
                  stereo for a matte object).",
                 100.0 * low as f64 / inside.len() as f64,
                 inside.iter().map(|&v| f64::from(v)).sum::<f64>() / inside.len() as f64
+            ),
             ));
         }
     }
     if opts.interreflections && !opts.nik.scale_known {
-        w.push(
+        w.push(Warning::new(
+            WarningCode::ImageScaleUnknown,
             "image scale unknown: interreflection removal needs images in radiance units (the \
              bounced light is proportional to the absolute albedo, which photometric stereo \
              knows only up to the camera's gain). Nothing said so here (no image scale given, no \
              meta.json scale): with 8-bit photographs the depth of a concavity may be off by \
              several percent. Give the image scale (the factor to radiance units) or \
-             calibrated light_intensities.txt."
-                .to_string(),
-        );
+             calibrated light_intensities.txt.",
+        ));
     }
     w
 }
@@ -155,21 +155,18 @@ pub(super) fn summary(
     method: integrate::Method,
     acc: &Accuracy,
     ir: &Option<Interreflections>,
-) -> Vec<(String, String)> {
+) -> Vec<Figure> {
     let s = &job.target;
     let mut f = vec![
-        (
-            "images".to_string(),
-            format!("{} of {}×{}", s.k, s.width, s.height),
-        ),
-        ("pixels in the mask".into(), job.mask.count().to_string()),
-        ("integrator".into(), method.name().to_string()),
-        (
-            "depth range (px)".into(),
+        Figure::new("images", format!("{} of {}×{}", s.k, s.width, s.height)),
+        Figure::new("pixels in the mask", job.mask.count().to_string()),
+        Figure::new("integrator", method.name().to_string()),
+        Figure::new(
+            "depth range (px)",
             format!("{:.2}", depth_range(depth, &job.mask)),
         ),
-        (
-            "mesh".into(),
+        Figure::new(
+            "mesh",
             format!(
                 "{} vertices, {} triangles{}",
                 mesh.vertices.len(),
@@ -188,39 +185,42 @@ pub(super) fn summary(
     ];
     if let Some(c) = &est.confidence {
         let mean = masked_mean(c, &job.mask);
-        f.push(("mean confidence".into(), format!("{mean:.3}")));
+        f.push(Figure::new("mean confidence", format!("{mean:.3}")));
     }
     if let Some(a) = &est.albedo {
         let mean = masked_mean(a, &job.mask);
-        f.push(("mean albedo".into(), format!("{mean:.3}")));
+        f.push(Figure::new("mean albedo", format!("{mean:.3}")));
     }
     f.extend(accuracy_rows(acc));
     if let Some(ir) = ir {
-        f.push(("interreflections".into(), ir.summary.clone()));
-        f.push((
-            "depth range before → after interreflection removal (px)".into(),
+        f.push(Figure::new("interreflections", ir.summary.clone()));
+        f.push(Figure::new(
+            "depth range before → after interreflection removal (px)",
             format!("{:.2} → {:.2}", ir.depth_before, ir.depth_after),
         ));
-        f.push((
-            "mean albedo before → after".into(),
+        f.push(Figure::new(
+            "mean albedo before → after",
             format!("{:.3} → {:.3}", ir.albedo_before, ir.albedo_after),
         ));
     }
     f
 }
 
-fn accuracy_rows(acc: &Accuracy) -> Vec<(String, String)> {
+fn accuracy_rows(acc: &Accuracy) -> Vec<Figure> {
     let mut f = Vec::new();
     if let Some((st, _)) = &acc.angular {
-        f.push(("mean angular error (°)".into(), format!("{:.3}", st.mean)));
-        f.push((
-            "median angular error (°)".into(),
+        f.push(Figure::new(
+            "mean angular error (°)",
+            format!("{:.3}", st.mean),
+        ));
+        f.push(Figure::new(
+            "median angular error (°)",
             format!("{:.3}", st.median),
         ));
     }
     if let Some((st, _)) = &acc.depth {
-        f.push((
-            "depth RMSE after offset (px)".into(),
+        f.push(Figure::new(
+            "depth RMSE after offset (px)",
             format!(
                 "{:.3} ({:.2}% of the range {:.1})",
                 st.rmse,
@@ -230,44 +230,4 @@ fn accuracy_rows(acc: &Accuracy) -> Vec<(String, String)> {
         ));
     }
     f
-}
-
-/// `run.json`: the dataset's title, the integrator, per-stage seconds (`stages`, in
-/// order, those before the pipeline's own included), the figures, and the accuracy and
-/// interreflection numbers when there are some.
-pub fn run_json(title: &str, p: &Output, stages: &[(String, f64)]) -> Value {
-    let stage_list: Vec<Value> = stages
-        .iter()
-        .map(|(n, s)| json!({"stage": n, "seconds": s}))
-        .collect();
-    let figures: serde_json::Map<String, Value> = p
-        .figures
-        .iter()
-        .map(|(k, v)| (k.clone(), Value::String(v.clone())))
-        .collect();
-    let mut v = json!({
-        "dataset": title,
-        "integrator": p.method.name(),
-        "stages": stage_list,
-        "total_seconds": stages.iter().map(|s| s.1).sum::<f64>(),
-        "figures": figures,
-    });
-    if let Some((st, _)) = &p.accuracy.angular {
-        v["angular_error_deg"] = json!({"mean": st.mean, "median": st.median, "count": st.count});
-    }
-    if let Some((st, _)) = &p.accuracy.depth {
-        v["depth_error_px"] = json!({"rmse": st.rmse, "range": st.range, "offset": st.offset});
-    }
-    v["warnings"] = json!(p.warnings);
-    if let Some(ir) = &p.interreflections {
-        v["interreflections"] = json!({
-            "depth_before_px": ir.depth_before,
-            "depth_after_px": ir.depth_after,
-            "mean_albedo_before": ir.albedo_before,
-            "mean_albedo_after": ir.albedo_after,
-            "iterations": ir.iterations,
-            "summary": ir.summary,
-        });
-    }
-    v
 }

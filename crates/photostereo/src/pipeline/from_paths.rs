@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use super::load::{Inputs, Run};
-use super::Options;
+use super::{Figure, Options};
 use crate::error::Result;
 use crate::io;
 use crate::progress::Progress;
@@ -28,14 +28,15 @@ pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress)
     opts.nik.scale_known |= loaded.scale_known;
     let mut output = super::solve(&loaded.job, &opts, progress)?;
     if let Some((scale, from)) = loaded.image_scale {
-        output
-            .figures
-            .push(("image scale (images ×)".into(), format!("{scale} ({from})")));
+        output.figures.push(Figure::new(
+            "image scale (images ×)",
+            format!("{scale} ({from})"),
+        ));
     }
     // run.json's figures record how the images were linearised
     output
         .figures
-        .push(("image response".into(), loaded.response.to_string()));
+        .push(Figure::new("image response", loaded.response.to_string()));
     output.chrome = loaded.chrome.clone();
     for w in &loaded.warnings {
         progress.note(&format!("warning: {w}"));
@@ -52,6 +53,6 @@ pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress)
     Ok(Run {
         output,
         report: written.report,
-        json: written.json,
+        summary: written.summary,
     })
 }

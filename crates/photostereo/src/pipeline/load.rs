@@ -4,13 +4,12 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use serde_json::Value;
-
-use super::{Calibration, Job, Normals, Options, Output, Titles, Truth};
+use super::{Calibration, Job, Normals, Options, Output, RunSummary, Titles, Truth};
 use crate::error::{Error, Result, Setting};
 use crate::image::{Lights, Mask};
 use crate::progress::Progress;
 use crate::sphere::checks::MirrorCheck;
+use crate::warning::{Warning, WarningCode};
 use crate::{io, lightcal, sphere};
 
 /// The files of a run: the target dataset and where its normals come from. Exactly one
@@ -62,7 +61,7 @@ pub struct Loaded {
     pub chrome: Option<sphere::Detection>,
     /// Warnings about the inputs found while loading (a "chrome" sphere without mirror
     /// highlights); [`run`] adds them to the output's.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
     /// The response curve the target's images were linearised with (resolved).
     pub response: io::Response,
 }
@@ -75,7 +74,7 @@ pub struct Run {
     /// The path of `report.html`.
     pub report: PathBuf,
     /// What `run.json` holds.
-    pub json: Value,
+    pub summary: RunSummary,
 }
 
 impl Inputs {
@@ -146,7 +145,11 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         let t = Instant::now();
         let (lights, det) = lights(inputs, target.lights.clone(), &target.stack.names, progress)?;
         if let Some((det, mirror)) = det {
-            warnings.extend(mirror.warning());
+            warnings.extend(
+                mirror
+                    .warning()
+                    .map(|m| Warning::new(WarningCode::NotAMirror, m)),
+            );
             chrome = Some(det);
         }
         stages.push(("lights".to_string(), t.elapsed().as_secs_f64()));
@@ -206,7 +209,7 @@ pub(super) fn leave_out_sphere(
     inputs: &Inputs,
     opts: &Options,
     mask: &mut Mask,
-) -> Result<Option<String>> {
+) -> Result<Option<Warning>> {
     if !sphere_is_target(inputs) {
         return Ok(None);
     }
@@ -242,11 +245,12 @@ pub(super) fn leave_out_sphere(
         }
     }
     Ok((dropped > 0).then(|| {
-        format!(
+        let message = format!(
             "{dropped} pixels of the target's mask lie where the calibration sphere is searched \
              (the sphere shares the target's images): they are left out of the target. Keep the \
              sphere's search window (or mask) off the target"
-        )
+        );
+        Warning::new(WarningCode::SphereLeftOutOfMask, message)
     }))
 }
 

@@ -42,21 +42,26 @@ mod outputs;
 mod report_page;
 mod spatial_stage;
 mod stages;
+mod summary;
 mod timer;
 
 use crate::error::{Error, Result};
 use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::Progress;
+use crate::warning::Warning;
 use crate::{curvature, eval, integrate, interreflect, lambertian, lut, mesh, spatial, sphere};
 
 pub use checks::NEIGHBOURS_WARN;
 pub use figures::Titles;
-pub use figures::{depth_range, masked_mean, run_json, warnings, LOW_CONFIDENCE};
+pub use figures::{depth_range, masked_mean, warnings, LOW_CONFIDENCE};
 pub use from_paths::run;
 pub use load::{load, radiance_scale, scale_is_known, Inputs, Loaded, Run};
 pub use outputs::{write_outputs, write_outputs_with, Written};
 #[cfg(feature = "report")]
 pub use report_page::build_report;
+pub use summary::{
+    AngularError, DepthError, Figure, InterreflectionFigures, Plot, RunSummary, StageTime,
+};
 
 /// A calibration made beforehand: the lookup table and, when known, the sphere
 /// detection it was built from (for the report's circle figure and overlay).
@@ -201,8 +206,8 @@ pub struct Interreflections {
     pub summary: String,
     /// Convergence table (CSV).
     pub csv: String,
-    /// Plots: (file name, PNG bytes).
-    pub plots: Vec<(String, Vec<u8>)>,
+    /// Plots (their file names and PNG bytes).
+    pub plots: Vec<Plot>,
     /// Compensation steps done.
     pub iterations: usize,
     /// Depth of the concavity (depth range over the mask, px) of the raw reconstruction.
@@ -256,11 +261,11 @@ pub struct Output {
     pub accuracy: Accuracy,
     /// (stage, seconds), in order.
     pub stages: Vec<(String, f64)>,
-    /// (figure, value) rows for the report and `run.json`, in order.
-    pub figures: Vec<(String, String)>,
+    /// The rows of the figures for the report and `run.json` ([`RunSummary`]), in order.
+    pub figures: Vec<Figure>,
     /// How far not to trust the result, and why: shown at the top of the report, in
     /// `run.json` and (through [`Progress::note`]) on the terminal ([`warnings`]).
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
     /// The chrome sphere the lights were calibrated from (its circle for the report and
     /// `chrome_overlay.png`), when [`run`] did that.
     pub chrome: Option<sphere::Detection>,
@@ -339,7 +344,10 @@ fn finish(
     };
     let mut figures = Vec::new();
     if let Some(det) = &circle {
-        figures.push(("sphere circle (cx, cy, r) px".into(), figures::circle(det)));
+        figures.push(Figure::new(
+            "sphere circle (cx, cy, r) px",
+            figures::circle(det),
+        ));
     }
     figures.extend(figures::summary(
         job, &est, &depth, &mesh, method, &accuracy, &ir,
@@ -348,8 +356,8 @@ fn finish(
         figures.extend(spatial_stage::rows(info, &job.mask));
     }
     if let Some(why) = why {
-        for row in figures.iter_mut().filter(|r| r.0 == "integrator") {
-            row.1 = format!("{} ({why})", method.name());
+        for row in figures.iter_mut().filter(|r| r.name == "integrator") {
+            row.value = format!("{} ({why})", method.name());
         }
     }
     figures.extend(figures::picture_rows(job, est.albedo.as_ref(), &depth));

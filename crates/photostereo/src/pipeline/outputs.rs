@@ -3,10 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
-use serde_json::{json, Value};
-
-use super::figures::{run_json, Titles};
-use super::{Exports, Job, Normals, Output};
+use super::figures::Titles;
+use super::{Exports, Job, Normals, Output, RunSummary};
 use crate::error::Result;
 use crate::picture as raster;
 use crate::{io, mesh, sphere};
@@ -17,8 +15,8 @@ use crate::{io, mesh, sphere};
 pub struct Written {
     /// The path of `report.html` (of `run.json` without the `report` feature).
     pub report: PathBuf,
-    /// The contents of `run.json`.
-    pub json: Value,
+    /// What `run.json` holds.
+    pub summary: RunSummary,
 }
 
 /// Write every product of `p` into the directory `out` (created): `normals.npy/png`,
@@ -69,22 +67,24 @@ pub fn write_outputs_with(
         .collect();
     let mut stages: Vec<(String, f64)> = extra_stages.to_vec();
     stages.extend(p.stages.iter().cloned());
+    let summary = RunSummary {
+        files: files.iter().map(|f| f.to_string()).collect(),
+        stale_removed: stale.clone(),
+        ..RunSummary::of(&titles.title, p, &stages)
+    };
     #[cfg(feature = "report")]
     let report = {
         let report = out.join("report.html");
-        let html = super::report_page::build_report(titles, job, p, &stages)?;
+        let html = super::report_page::build_report(titles, job, p, &summary)?;
         io::write_text(&report, &html)?;
         report
     };
-    let mut json = run_json(&titles.title, p, &stages);
-    json["files"] = json!(files);
-    json["stale_removed"] = json!(stale);
     let json_path = out.join("run.json");
-    io::write_text(&json_path, &json.to_string())?;
+    io::write_text(&json_path, &summary.to_json().to_string())?;
     io::remove_files(out, &stale)?;
     #[cfg(not(feature = "report"))]
     let report = json_path;
-    Ok(Written { report, json })
+    Ok(Written { report, summary })
 }
 
 /// Write the maps, mesh and pictures of `p`; returns the names of the files written.
@@ -151,10 +151,10 @@ fn write_sides(out: &Path, job: &Job, p: &Output) -> Result<Vec<&'static str>> {
     if let Some(ir) = &p.interreflections {
         io::write_text(&out.join("convergence.csv"), &ir.csv)?;
         files.push("convergence.csv");
-        for (name, png) in &ir.plots {
-            io::write_bytes(&out.join(name), png)?;
+        for plot in &ir.plots {
+            io::write_bytes(&out.join(&plot.file), &plot.png)?;
             // the plots are named by the pipeline; list them by their RUN_FILES name
-            if let Some(n) = io::RUN_FILES.iter().find(|n| **n == name.as_str()) {
+            if let Some(n) = io::RUN_FILES.iter().find(|n| **n == plot.file.as_str()) {
                 files.push(n);
             }
         }

@@ -2,24 +2,25 @@
 //! view of the mesh.
 
 use super::figures::Titles;
-use super::{Job, Normals, Output};
+use super::{Job, Normals, Output, RunSummary};
 use crate::error::Result;
 use crate::picture::ColorMap;
 use crate::report::{Report, Section};
 use crate::sphere;
 
-/// The HTML report of a job (`stages`: every timing to list, in order).
+/// The HTML report of a job: the maps of `p`, and the warnings, figures and timings of
+/// its `summary` (what `run.json` holds).
 pub fn build_report(
     titles: &Titles,
     job: &Job,
     p: &Output,
-    stages: &[(String, f64)],
+    summary: &RunSummary,
 ) -> Result<String> {
     let mask = Some(&job.mask);
     let mut r = Report::new(&titles.title);
     r.subtitle(&titles.subtitle);
-    for w in &p.warnings {
-        r.warning(w);
+    for w in &summary.warnings {
+        r.warning(&w.message);
     }
     r.inputs(&job.target);
     r.surface(&p.depth, p.albedo.as_ref())?;
@@ -65,19 +66,16 @@ pub fn build_report(
     }
     error_maps(&mut r, job, p)?;
     if let Some(ir) = &p.interreflections {
-        for (name, png) in &ir.plots {
-            r.png(
-                Section::Interreflections,
-                &name.replace(".png", ""),
-                png.clone(),
-            )?;
+        for plot in &ir.plots {
+            let caption = plot.file.replace(".png", "");
+            r.png(Section::Interreflections, &caption, plot.png.clone())?;
         }
     }
-    for (k, v) in &p.figures {
-        r.figure(k, v);
+    for f in &summary.figures {
+        r.figure(&f.name, &f.value);
     }
-    for (k, s) in stages {
-        r.figure(format!("time: {k}"), format!("{s:.2} s"));
+    for t in &summary.stages {
+        r.figure(format!("time: {}", t.stage), format!("{:.2} s", t.seconds));
     }
     r.to_html()
 }

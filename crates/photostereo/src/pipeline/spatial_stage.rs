@@ -7,7 +7,7 @@
 //! `own_share`). Without it only the standard errors are computed. The band-wise run
 //! ([`super::banded`]) composes the same steps band by band and reports them here too.
 
-use super::{Estimate, Options};
+use super::{Estimate, Figure, Options};
 use crate::image::{GrayImage, Mask};
 use crate::spatial::{self, NoiseModel};
 
@@ -70,18 +70,18 @@ pub(super) fn own_only(noise: NoiseModel, sigma: GrayImage) -> SpatialInfo {
 }
 
 /// The report's and `run.json`'s rows of the stage.
-pub(super) fn rows(info: &SpatialInfo, mask: &Mask) -> Vec<(String, String)> {
+pub(super) fn rows(info: &SpatialInfo, mask: &Mask) -> Vec<Figure> {
     let n = info.noise;
     let mut f = vec![
-        (
-            "noise measured on the target".to_string(),
+        Figure::new(
+            "noise measured on the target",
             format!(
                 "σ = √({:.3e}² + {:.3e}·I), ≥ step {:.3e} / √12",
                 n.read, n.gain, n.step
             ),
         ),
-        (
-            "mean angular standard error of the normals, own data (°)".to_string(),
+        Figure::new(
+            "mean angular standard error of the normals, own data (°)",
             format!("{:.2}", spatial::mean_in(&info.sigma, mask)),
         ),
     ];
@@ -97,6 +97,6 @@ pub(super) fn rows(info: &SpatialInfo, mask: &Mask) -> Vec<(String, String)> {
         ),
         None => "off (every pixel keeps its own normal)".to_string(),
     };
-    f.push(("spatial stage".to_string(), row));
+    f.push(Figure::new("spatial stage", row));
     f
 }

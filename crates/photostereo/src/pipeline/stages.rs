@@ -2,7 +2,7 @@
 //! in `timer.rs`).
 
 use super::timer::Stages;
-use super::{spatial_stage, Accuracy, Estimate, Interreflections, Job, Normals, Options};
+use super::{spatial_stage, Accuracy, Estimate, Interreflections, Job, Normals, Options, Plot};
 use crate::error::Result;
 use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::Progress;
@@ -237,17 +237,17 @@ fn nik_plots(
     out: &interreflect::NikOutput,
     mask: &Mask,
     truth: Option<&DepthMap>,
-) -> Result<Vec<(String, Vec<u8>)>> {
+) -> Result<Vec<Plot>> {
     let row = interreflect::plot::middle_row(mask).unwrap_or(mask.height / 2);
     Ok(vec![
-        (
-            "profiles.png".to_string(),
-            interreflect::profile_plot_png(out, mask, row, truth)?,
-        ),
-        (
-            "convergence.png".to_string(),
-            interreflect::convergence_plot_png(out)?,
-        ),
+        Plot {
+            file: "profiles.png".to_string(),
+            png: interreflect::profile_plot_png(out, mask, row, truth)?,
+        },
+        Plot {
+            file: "convergence.png".to_string(),
+            png: interreflect::convergence_plot_png(out)?,
+        },
     ])
 }
 
@@ -257,7 +257,7 @@ fn nik_plots(
     _out: &interreflect::NikOutput,
     _mask: &Mask,
     _truth: Option<&DepthMap>,
-) -> Result<Vec<(String, Vec<u8>)>> {
+) -> Result<Vec<Plot>> {
     Ok(Vec::new())
 }
 
