@@ -39,6 +39,10 @@ pub struct LookupResult {
     /// stage; 0 = its neighbours decided it), else None.
     #[pyo3(get)]
     own_share: Option<Py<PyArray2<f32>>>,
+    /// [(code, message)]: what limits the result (e.g. "spatial_stage_skipped" with two
+    /// tables), the codes of `photostereo::WarningCode` in snake case.
+    #[pyo3(get)]
+    warnings: Vec<(String, String)>,
 }
 
 #[pymethods]
@@ -140,7 +144,17 @@ fn result(py: Python<'_>, out: normals::Output) -> LookupResult {
             .map(|w| w.into_iter().map(|g| gray(py, g)).collect()),
         normals_sigma: out.normals_sigma.map(|g| gray(py, g)),
         own_share: out.own_share.map(|g| gray(py, g)),
+        warnings: out.warnings.into_iter().map(warning).collect(),
     }
+}
+
+/// A warning as (code, message), the code as `run.json`'s `warning_codes` write it.
+fn warning(w: photostereo::Warning) -> (String, String) {
+    let code = serde_json::to_value(w.code)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_string))
+        .unwrap_or_else(|| "other".to_string());
+    (code, w.message)
 }
 
 /// lambertian(images, lights, mask=None, robust=True, spatial=True) -> Result

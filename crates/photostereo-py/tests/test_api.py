@@ -138,6 +138,9 @@ def test_mixture_two_tables(data):
     matte = ps.calibrate(data["matte_sphere"])
     res = ps.lookup(data["blob"], tables=[shiny, matte])
     assert res.weights is not None and len(res.weights) == 2
+    # the spatial stage models one material: skipped, and the result says so
+    assert res.own_share is None and res.normals_sigma is None
+    assert [code for code, _ in res.warnings] == ["spatial_stage_skipped"]
     mask = ps.load_dataset(data["blob"]).mask
     a, b = (w[mask] for w in res.weights)
     # the blob is all shiny plastic: the shiny weight dominates

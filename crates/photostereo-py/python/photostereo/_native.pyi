@@ -75,6 +75,9 @@ class Result:
     @property
     def own_share(self) -> Optional[F32]:
         """(H, W) share in [0, 1] of each pixel's own data in its normal (spatial stage)."""
+    @property
+    def warnings(self) -> list[tuple[str, str]]:
+        """[(code, message)]: what limits the result, e.g. ("spatial_stage_skipped", ...) with two tables."""
 
 class Table:
     """A lookup table intensity tuple -> normal, from a calibration sphere."""
