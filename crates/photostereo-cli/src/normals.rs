@@ -158,32 +158,22 @@ fn lookup_normals(
         .iter()
         .map(|p| read_table(p))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let method = match args.method.as_str() {
-        "nearest" => Method::Nearest,
-        "idw" => Method::InverseDistance { neighbours: 6 },
-        _ => Method::Refined,
-    };
-    let asked = lut::Options {
-        method,
-        normalize: args.normalize || args.split_specular,
-        split_specular: args.split_specular,
-        split_if_specular: args.normalize && !args.no_split,
-        ..lut::Options::default()
-    };
-    let input = normals::Input::Tables(&tables, &asked);
-    let bar = Bar::new(global.quiet);
-    let out = normals::pixelwise(stack, mask, &input, &bar).with_context(|| {
-        let files: Vec<String> = args.luts.iter().map(|p| p.display().to_string()).collect();
-        format!("applying {} to {}", files.join(" + "), args.dir.display())
-    })?;
-    let used = out.lookup_options.as_ref();
-    if used.is_some_and(|o| o.split_specular) && !args.split_specular && !global.quiet {
+    let asked = lookup_options(args);
+    // said before the lookup's progress, as the lookup resolves it (lut::options_for)
+    let split = lut::options_for(&tables, &asked).split_specular && !args.split_specular;
+    if split && !global.quiet {
         println!(
             "--normalize: the table is specular ({:.1}% of its light is not Lambertian): fitting \
              diffuse + specular (as --split-specular; --no-split for normalised matching)",
             100.0 * lut::specular_share(&tables[0])
         );
     }
+    let input = normals::Input::Tables(&tables, &asked);
+    let bar = Bar::new(global.quiet);
+    let out = normals::pixelwise(stack, mask, &input, &bar).with_context(|| {
+        let files: Vec<String> = args.luts.iter().map(|p| p.display().to_string()).collect();
+        format!("applying {} to {}", files.join(" + "), args.dir.display())
+    })?;
     if let (Some(s), false) = (&out.lookup, global.quiet) {
         println!(
             "{} pixels: {} with cast-shadowed lights dropped, {} with confidence < 0.5, mean residual {:.5}",
@@ -194,12 +184,37 @@ fn lookup_normals(
         .context("spatial stage after the lookup")?;
     say_spatial(&out, mask, global);
     let mut grays = spatial_grays(&mut out);
+    let mixture = mixture_grays(&mut out, args, global);
     grays.extend(out.confidence.map(|c| ("confidence", c)));
     grays.push(("residual", out.residual));
-    if let Some(a) = out.albedo {
-        grays.push(("albedo", a));
+    grays.extend(out.albedo.map(|a| ("albedo", a)));
+    grays.extend(mixture);
+    Ok(Results {
+        normals: out.normals,
+        grays,
+    })
+}
+
+/// The lookup's options from the flags.
+fn lookup_options(args: &Args) -> lut::Options {
+    let method = match args.method.as_str() {
+        "nearest" => Method::Nearest,
+        "idw" => Method::InverseDistance { neighbours: 6 },
+        _ => Method::Refined,
+    };
+    lut::Options {
+        method,
+        normalize: args.normalize || args.split_specular,
+        split_specular: args.split_specular,
+        split_if_specular: args.normalize && !args.no_split,
+        ..lut::Options::default()
     }
-    if let Some(w) = out.weights {
+}
+
+/// A mixture's weights and their standard error (two tables), taken out of `out`.
+fn mixture_grays(out: &mut normals::Output, args: &Args, global: Global) -> Grays {
+    let mut grays = Grays::new();
+    if let Some(w) = out.weights.take() {
         for ((img, name), path) in w
             .into_iter()
             .zip(["weights_1", "weights_2"])
@@ -211,13 +226,8 @@ fn lookup_normals(
             grays.push((name, img));
         }
     }
-    if let Some(sigma) = out.weight_sigma {
-        grays.push(("weights_sigma", sigma));
-    }
-    Ok(Results {
-        normals: out.normals,
-        grays,
-    })
+    grays.extend(out.weight_sigma.take().map(|s| ("weights_sigma", s)));
+    grays
 }
 
 /// The maps of the spatial stage, in the order they are written: normals_sigma, then
