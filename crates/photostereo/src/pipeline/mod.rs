@@ -3,7 +3,8 @@
 //!
 //! # Stages
 //!
-//! 1. **Normals**, by one of ([`Normals`]):
+//! 1. **Normals**, by one of ([`Normals`]; [`crate::normals::solve`] does this stage,
+//!    spatial stage included, for the whole-stack path):
 //!    * a lookup table (calibration-based photometric stereo, see [`crate::lut`]): the
 //!      calibration sphere is found ([`crate::sphere::detect`]), its table built
 //!      ([`crate::lut::Table::build`]) and the target looked up ([`crate::lut::solve`]);
@@ -24,7 +25,8 @@
 //!    normals, depth RMSE after the best offset ([`crate::eval`]).
 //!
 //! [`solve`] runs them in memory and returns an [`Output`] with the products, the
-//! figures (the rows of the report and of `run.json`) and the seconds of each stage.
+//! figures (the rows of the report and of `run.json`), the warnings and the seconds of
+//! each stage; [`RunSummary`] is what `run.json` holds, typed.
 //! [`write_outputs`] writes the files of a run (through [`crate::io`] only);
 //! [`run`] does the whole job from paths ([`Inputs`]) as the `run` subcommand does.
 //!
