@@ -29,6 +29,7 @@
 
 use crate::error::{Error, Result, Setting};
 use crate::image::{GrayImage, Image, Mask, NormalMap};
+use rayon::prelude::*;
 
 /// Settings of [`solve`].
 #[derive(Clone, Debug, PartialEq)]
@@ -121,6 +122,11 @@ pub fn solve(normals: &NormalMap, mask: &Mask, opts: &Options) -> Result<Curvatu
 
 /// Normalised Gaussian smoothing of the unit normals over `valid` (separable, radius
 /// 3σ), renormalised to unit length; `sigma` 0 returns them unchanged.
+///
+/// Row by row, in parallel: each output row sums the row-smoothed rows around it, each
+/// made when needed (2·3σ + 1 per row), so no full-size intermediate is held (a 4096²
+/// capture would need three of 270 MB each); the sums are those of a row pass then a
+/// column pass, in the same order.
 fn smooth_normals(normals: &NormalMap, valid: &Mask, sigma: f32) -> NormalMap {
     if sigma == 0.0 {
         return normals.clone();
@@ -129,51 +135,62 @@ fn smooth_normals(normals: &NormalMap, valid: &Mask, sigma: f32) -> NormalMap {
     let kernel: Vec<f32> = (-radius..=radius)
         .map(|d| (-(d * d) as f32 / (2.0 * sigma * sigma)).exp())
         .collect();
-    // weighted sums (n_x, n_y, n_z, weight), first along rows, then along columns
-    let start = Image::from_fn(normals.width, normals.height, |r, c| {
+    let (w, h) = (normals.width, normals.height);
+    // weighted sample (n_x, n_y, n_z, weight) at (r, c)
+    let sample = |r: usize, c: usize| -> [f32; 4] {
         let n = normals.get(r, c);
         if *valid.get(r, c) {
             [n[0], n[1], n[2], 1.0]
         } else {
             [0.0; 4]
         }
-    });
-    let rows = convolve(&start, &kernel, true);
-    let both = convolve(&rows, &kernel, false);
-    Image::from_fn(normals.width, normals.height, |r, c| {
-        let s = both.get(r, c);
-        let len = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
-        if *valid.get(r, c) && len > 0.0 {
-            [s[0] / len, s[1] / len, s[2] / len]
-        } else {
-            *normals.get(r, c)
-        }
-    })
+    };
+    let mut out = normals.clone();
+    out.data
+        .par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(r, row)| {
+            let mut both = vec![[0.0f32; 4]; w];
+            let mut along = vec![[0.0f32; 4]; w];
+            for (i, kd) in kernel.iter().enumerate() {
+                let rr = r as isize + i as isize - radius;
+                if rr < 0 || rr >= h as isize {
+                    continue;
+                }
+                convolve_row(|c| sample(rr as usize, c), w, &kernel, &mut along);
+                for (b, a) in both.iter_mut().zip(&along) {
+                    for (x, y) in b.iter_mut().zip(a) {
+                        *x += kd * y;
+                    }
+                }
+            }
+            for (c, (o, s)) in row.iter_mut().zip(&both).enumerate() {
+                let len = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+                if *valid.get(r, c) && len > 0.0 {
+                    *o = [s[0] / len, s[1] / len, s[2] / len];
+                }
+            }
+        });
+    out
 }
 
-/// One pass of a 1-D convolution with `kernel` (odd length), along rows (`horizontal`)
-/// or columns; samples beyond the image count as zero.
-fn convolve(img: &Image<[f32; 4]>, kernel: &[f32], horizontal: bool) -> Image<[f32; 4]> {
+/// A 1-D convolution with `kernel` (odd length) of the row `at(c)`, c < w, into `out`;
+/// samples beyond the row count as zero.
+fn convolve_row(at: impl Fn(usize) -> [f32; 4], w: usize, kernel: &[f32], out: &mut [[f32; 4]]) {
     let radius = (kernel.len() / 2) as isize;
-    let (w, h) = (img.width as isize, img.height as isize);
-    Image::from_fn(img.width, img.height, |r, c| {
+    for (c, o) in out.iter_mut().enumerate() {
         let mut acc = [0.0f32; 4];
         for (i, k) in kernel.iter().enumerate() {
-            let d = i as isize - radius;
-            let (rr, cc) = if horizontal {
-                (r as isize, c as isize + d)
-            } else {
-                (r as isize + d, c as isize)
-            };
-            if rr >= 0 && rr < h && cc >= 0 && cc < w {
-                let v = img.get(rr as usize, cc as usize);
+            let cc = c as isize + i as isize - radius;
+            if cc >= 0 && cc < w as isize {
+                let v = at(cc as usize);
                 for (a, x) in acc.iter_mut().zip(v) {
                     *a += k * x;
                 }
             }
         }
-        acc
-    })
+        *o = acc;
+    }
 }
 
 /// Mean and Gaussian curvature of unit normals `n` at the `valid` pixels.

@@ -237,8 +237,9 @@ pub(super) fn run(
 }
 
 /// The pipeline on the capture: normals by bands, then [`super::finish`] with the ground
-/// truth of the `target` folder (read once the normals are made: it is not needed
-/// before, and would add 16 B per pixel to their peak). Returns the job (its target the
+/// truth of the `target` folder (read by the accuracy stage only: it is not needed
+/// before, and would add 16 B per pixel to the peaks of the spatial stage and the
+/// integration). Returns the job (its target the
 /// decimated images of the thumbnails) and the output.
 fn solve(
     cap: &mut Capture,
@@ -297,18 +298,18 @@ fn solve(
         data: preview,
         names: file_names(&cap.ds),
     };
-    let (tn, td) = io::read_ground_truth(target)?;
-    let truth = Truth {
-        normals: tn,
-        depth: td,
-    };
+    // the ground truth is read by the accuracy stage (finish's truth_dir)
     let job = Job {
         target: thumbnails,
         mask: cap.mask.clone(),
         normals,
-        truth,
+        truth: Truth {
+            normals: None,
+            depth: None,
+        },
     };
-    let mut output = super::finish(st, &job, opts, method, (est, circle, None))?;
+    let result = (est, circle, None);
+    let mut output = super::finish(st, &job, opts, method, result, Some(target))?;
     for row in output.figures.iter_mut().filter(|r| r.name == "images") {
         row.value = format!("{k} of {w}×{h}");
     }

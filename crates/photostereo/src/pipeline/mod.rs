@@ -295,20 +295,25 @@ pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Outpu
         .method
         .unwrap_or_else(|| integrate::choose_method(&job.mask));
     let normals = stages::normals(&mut st, job, opts, method)?;
-    finish(st, job, opts, method, normals)
+    finish(st, job, opts, method, normals, None)
 }
 
 /// The stages after the normals: integration (unless NIK made the depth), mesh,
-/// accuracy, and the figures and warnings of the output.
+/// accuracy, and the figures and warnings of the output. The accuracy is against the
+/// job's ground truth, or with `truth_dir` against that folder's, read only for that
+/// stage (a run by bands: 16 B per pixel kept out of the integration's peak).
 fn finish(
     mut st: timer::Stages,
     job: &Job,
     opts: &Options,
     method: integrate::Method,
     (est, circle, ir): stages::NormalsResult,
+    truth_dir: Option<&std::path::Path>,
 ) -> Result<Output> {
     let progress = st.progress();
-    let has_truth = job.truth.normals.is_some() || job.truth.depth.is_some();
+    let has_truth = job.truth.normals.is_some()
+        || job.truth.depth.is_some()
+        || truth_dir.is_some_and(crate::io::has_ground_truth);
     let auto = opts.method.is_none();
     let (depth, cuts, method, why) = match est.depth.clone() {
         Some(d) => (d, None, method, None),
@@ -340,7 +345,17 @@ fn finish(
         None => None,
     };
     let accuracy = if has_truth {
-        st.run("accuracy", |_| stages::accuracy(job, &est.normals, &depth))?
+        st.run("accuracy", |_| match truth_dir {
+            Some(dir) => {
+                let (normals, depth_gt) = crate::io::read_ground_truth(dir)?;
+                let truth = Truth {
+                    normals,
+                    depth: depth_gt,
+                };
+                stages::accuracy(&truth, &job.mask, &est.normals, &depth)
+            }
+            None => stages::accuracy(&job.truth, &job.mask, &est.normals, &depth),
+        })?
     } else {
         Accuracy::default()
     };

@@ -2,7 +2,9 @@
 //! in `timer.rs`).
 
 use super::timer::Stages;
-use super::{spatial_stage, Accuracy, Estimate, Interreflections, Job, Normals, Options, Plot};
+use super::{
+    spatial_stage, Accuracy, Estimate, Interreflections, Job, Normals, Options, Plot, Truth,
+};
 use crate::error::Result;
 use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::Progress;
@@ -263,17 +265,22 @@ fn nik_plots(
 
 /// Angular error of the normals and depth error after the best offset, where the job
 /// has the truth.
-pub(super) fn accuracy(job: &Job, normals: &NormalMap, depth: &DepthMap) -> Result<Accuracy> {
-    let angular = match &job.truth.normals {
+pub(super) fn accuracy(
+    truth: &Truth,
+    mask: &Mask,
+    normals: &NormalMap,
+    depth: &DepthMap,
+) -> Result<Accuracy> {
+    let angular = match &truth.normals {
         Some(gt) => Some((
-            eval::angular_errors(normals, gt, &job.mask)?,
-            eval::angular_error_map(normals, gt, &job.mask)?,
+            eval::angular_errors(normals, gt, mask)?,
+            eval::angular_error_map(normals, gt, mask)?,
         )),
         None => None,
     };
-    let depth_acc = match &job.truth.depth {
+    let depth_acc = match &truth.depth {
         Some(gt) => {
-            let stats = eval::depth_rmse(depth, gt, &job.mask)?;
+            let stats = eval::depth_rmse(depth, gt, mask)?;
             let off = stats.offset as f32;
             let map = GrayImage {
                 width: depth.width,
@@ -282,7 +289,7 @@ pub(super) fn accuracy(job: &Job, normals: &NormalMap, depth: &DepthMap) -> Resu
                     .data
                     .iter()
                     .zip(&gt.data)
-                    .zip(&job.mask.data)
+                    .zip(&mask.data)
                     .map(|((e, g), &m)| if m { e + off - g } else { f32::NAN })
                     .collect(),
             };

@@ -186,7 +186,7 @@ fn solve_from(
 ) -> Result<Output> {
     check(ev, mask, opts)?;
     let (x, fine, levels, its) = quadratic(ev, mask, opts, start);
-    let out = finish(ev, mask, &x, (&fine, levels), its);
+    let out = finish(ev, mask, &x, (fine, levels), its);
     crate::io::memtrace::mark("spatial: solution's images made");
     Ok(out)
 }
@@ -439,34 +439,49 @@ fn quadratic(
 }
 
 /// The output images and figures from the solution `x` (per mask pixel) on the `fine`
-/// level of the `levels` solved.
+/// level of the `levels` solved (dropped before the images are made).
 fn finish(
     ev: &Evidence,
     mask: &Mask,
     x: &[[f32; 2]],
-    (fine, levels): (&Level, usize),
+    (fine, levels): (Level, usize),
     iterations: usize,
 ) -> Output {
     let a = &ev.a;
     let (w, h) = (ev.width, ev.height);
+    let mut own = vec![0.0f32; fine.len()];
+    fine.each(&mut own, |r, c, i, j| fine.own_share((r, c, i, j)));
+    let cut_triples = fine.cut_triples();
+    drop(fine);
     let mut normals = NormalMap::filled(w, h, [0.0; 3]);
     let mut own_share = GrayImage::filled(w, h, 0.0);
     let mut sigma_deg = GrayImage::filled(w, h, 0.0);
-    // (own share, normal, σ_θ) per pixel, rows in parallel; zeros outside the mask
+    // (own share, normal, σ_θ) per pixel, rows in parallel; zeros outside the mask. The
+    // mask pixels of row r are x's and own's from the count of those above it.
+    let starts: Vec<usize> = std::iter::once(0)
+        .chain(mask.data.chunks(w.max(1)).scan(0, |n, row| {
+            *n += row.iter().filter(|&&m| m).count();
+            Some(*n)
+        }))
+        .collect();
     normals
         .data
-        .par_chunks_mut(w)
-        .zip(own_share.data.par_chunks_mut(w))
-        .zip(sigma_deg.data.par_chunks_mut(w))
+        .par_chunks_mut(w.max(1))
+        .zip(own_share.data.par_chunks_mut(w.max(1)))
+        .zip(sigma_deg.data.par_chunks_mut(w.max(1)))
         .enumerate()
         .for_each(|(r, ((nrow, srow), grow))| {
+            let mut j = starts[r];
             for c in 0..w {
                 let i = r * w + c;
-                let Some(j) = fine.at(i) else { continue };
+                if !mask.data[i] {
+                    continue;
+                }
                 let n = to_normal(x[j]);
                 nrow[c] = n;
-                srow[c] = fine.own_share((r, c, i, j));
+                srow[c] = own[j];
                 grow[c] = angular_sigma_deg([n[0], n[1]], a[i]);
+                j += 1;
             }
         });
     let pixels = mask.count();
@@ -476,7 +491,7 @@ fn finish(
     let stats = Stats {
         pixels,
         decided_by_neighbours,
-        cut_triples: fine.cut_triples(),
+        cut_triples,
         kept_own: 0,
         levels,
         iterations,
