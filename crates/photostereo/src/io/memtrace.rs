@@ -3,7 +3,8 @@
 //! the resident memory now (Linux `/proc/self/status`, `VmHWM` and `VmRSS`), then resets
 //! the peak (`/proc/self/clear_refs`), so that each line is the peak of the code between
 //! two marks. For measuring (docs/benchmarks.md, "Big captures"); off by default, and a
-//! no-op where `/proc` is not there.
+//! no-op where `/proc` is not there. The reset also resets what `/usr/bin/time -v`
+//! reports as the maximum resident set size: measure the run's peak without the trace.
 
 use std::fs;
 use std::sync::OnceLock;
