@@ -29,6 +29,7 @@ use crate::progress::Progress;
 use faer::linalg::solvers::Solve;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{MatMut, Side};
+use std::borrow::Cow;
 
 /// Relative residual ‖b − Lz‖/‖b‖ at which CG stops.
 pub(crate) const TOL: f64 = 1e-6;
@@ -300,11 +301,40 @@ impl Padded {
     }
 }
 
+/// Makes the (sanitised) gradient planes p, q again.
+pub(crate) type Remake<'a> = &'a (dyn Fn() -> (Vec<f32>, Vec<f32>) + Sync);
+
+/// The gradient planes for [`integrate`]: kept by the caller, or handed over with a way
+/// to make them again, so that they are freed while the solver runs (the peak of a big
+/// run: two planes of 4 B per pixel, 134 MB at 4096²).
+pub(crate) enum Gradients<'a> {
+    Kept(&'a [f32], &'a [f32]),
+    Handed(Vec<f32>, Vec<f32>, Remake<'a>),
+}
+
+/// [`integrate`] on the planes p, q: handed over (and made again afterwards) when both
+/// are owned and a `remake` is given, else kept by the caller.
+pub(crate) fn integrate_planes(
+    (p, q, remake): (&mut Cow<'_, [f32]>, &mut Cow<'_, [f32]>, Option<Remake<'_>>),
+    mask: &Mask,
+    weights: Option<&GrayImage>,
+    comps: &Components,
+    progress: &dyn Progress,
+) -> Result<(Vec<f32>, usize)> {
+    if let (Some(remake), Cow::Owned(pv), Cow::Owned(qv)) = (remake, &mut *p, &mut *q) {
+        let grads = Gradients::Handed(std::mem::take(pv), std::mem::take(qv), remake);
+        let solved = integrate(grads, mask, weights, comps, progress)?;
+        let (pv, qv) = remake();
+        (*p, *q) = (Cow::Owned(pv), Cow::Owned(qv));
+        return Ok(solved);
+    }
+    integrate(Gradients::Kept(p, q), mask, weights, comps, progress)
+}
+
 /// Solve the masked problem; returns depth on the whole grid (0 outside the mask) and
 /// the CG iterations.
 pub(crate) fn integrate(
-    p: &[f32],
-    q: &[f32],
+    grads: Gradients<'_>,
     mask: &Mask,
     weights: Option<&GrayImage>,
     comps: &Components,
@@ -313,7 +343,11 @@ pub(crate) fn integrate(
     let (w, h) = (mask.width, mask.height);
     let s = w + 2;
     progress.start("lsq: assemble, solve", 2);
-    let mut sys = Padded::assemble(p, q, mask, weights);
+    // handed-over planes are dropped at the end of their arm, before the solve
+    let (mut sys, source) = match grads {
+        Gradients::Kept(p, q) => (Padded::assemble(p, q, mask, weights), Ok((p, q))),
+        Gradients::Handed(p, q, remake) => (Padded::assemble(&p, &q, mask, weights), Err(remake)),
+    };
     sys.pin(comps, w);
     progress.advance(1);
     // CG's first access to x is x ← x + α p (a read): zeroed by writing.
@@ -339,7 +373,13 @@ pub(crate) fn integrate(
     } else {
         // CG did not converge (not seen; see the module documentation): assemble again
         // for the exact solver.
-        let mut again = Padded::assemble(p, q, mask, weights);
+        let mut again = match source {
+            Ok((p, q)) => Padded::assemble(p, q, mask, weights),
+            Err(remake) => {
+                let (p, q) = remake();
+                Padded::assemble(&p, &q, mask, weights)
+            }
+        };
         again.pin(comps, w);
         let exact = again.unpadded(w, h).cholesky(mask)?;
         (exact.iter().map(|&v| v as f32).collect(), 0)

@@ -72,11 +72,12 @@ mod trust;
 use crate::error::{Error, Result};
 use crate::image::{DepthMap, GrayImage, Mask, NormalMap};
 use crate::progress::{NoProgress, Progress};
+use std::borrow::Cow;
 
 pub use camera::Camera;
 pub use fft2::fft_floor;
 pub use parts::Parts;
-pub use support::{label_components, Components};
+pub use support::{gradients, label_components, Components};
 pub use trust::{trust_weights, TrustOptions};
 
 /// How to turn gradients into depth. Each variant states its equation and its
@@ -347,33 +348,6 @@ pub fn choose_method_for(
 /// Jump edges ([`jump_edges`]) from which [`choose_method_for`] picks BiNI.
 pub const JUMP_EDGES: usize = 20;
 
-/// Gradients (p, q) of a normal map inside the mask (0 outside), and the number of
-/// normals that had to be clamped (see the module documentation).
-pub fn gradients(normals: &NormalMap, mask: &Mask, min_nz: f32) -> (GrayImage, GrayImage, usize) {
-    let (w, h) = (normals.width, normals.height);
-    let mut p = GrayImage::filled(w, h, 0.0);
-    let mut q = GrayImage::filled(w, h, 0.0);
-    let mut clamped = 0;
-    for (i, n) in normals.data.iter().enumerate() {
-        if !mask.data.get(i).copied().unwrap_or(false) {
-            continue;
-        }
-        if n.iter().any(|v| v.is_nan()) {
-            clamped += 1;
-            continue;
-        }
-        let nz = if n[2] > min_nz {
-            n[2]
-        } else {
-            clamped += 1;
-            min_nz.max(f32::MIN_POSITIVE)
-        };
-        p.data[i] = (-n[0] / nz).clamp(-1e6, 1e6);
-        q.data[i] = (-n[1] / nz).clamp(-1e6, 1e6);
-    }
-    (p, q, clamped)
-}
-
 /// Integrate a normal map inside a mask.
 pub fn solve(normals: &NormalMap, mask: &Mask, opts: &Options) -> Result<Output> {
     solve_with_progress(normals, mask, opts, &NoProgress)
@@ -391,7 +365,17 @@ pub fn solve_with_progress(
         return perspective(normals, mask, &cam, opts, progress);
     }
     let (p, q, clamped) = gradients(normals, mask, opts.min_nz);
-    let mut out = integrate_gradients_with_progress(&p, &q, mask, opts, progress)?;
+    check_inputs(&p, &q, mask, opts)?;
+    // handed over, so that cleaning them needs no second copy, and made again from the
+    // normals where the solver frees them
+    let full = support::all_set_par(&mask.data);
+    let remake = || {
+        let (p, q, _) = gradients(normals, mask, opts.min_nz);
+        let (p, q, _) = support::sanitize_cow(Cow::Owned(p.data), Cow::Owned(q.data), mask, full);
+        (p.into_owned(), q.into_owned())
+    };
+    let (p, q) = (Cow::Owned(p.data), Cow::Owned(q.data));
+    let mut out = integrate_checked(p, q, mask, opts, Some(&remake), progress)?;
     out.clamped = clamped;
     Ok(out)
 }
@@ -509,10 +493,24 @@ pub fn integrate_gradients_with_progress(
     opts: &Options,
     progress: &dyn Progress,
 ) -> Result<Output> {
-    let (w, h) = (p.width, p.height);
     check_inputs(p, q, mask, opts)?;
+    let (p, q) = (Cow::Borrowed(&p.data[..]), Cow::Borrowed(&q.data[..]));
+    integrate_checked(p, q, mask, opts, None, progress)
+}
+
+/// [`integrate_gradients_with_progress`] after its checks, on gradients borrowed or
+/// handed over; with `remake`, handed-over planes that the solver may free.
+fn integrate_checked(
+    p: Cow<'_, [f32]>,
+    q: Cow<'_, [f32]>,
+    mask: &Mask,
+    opts: &Options,
+    remake: Option<lsq::Remake<'_>>,
+    progress: &dyn Progress,
+) -> Result<Output> {
+    let (w, h) = (mask.width, mask.height);
     let full = support::all_set_par(&mask.data);
-    let (p, q, clamped) = support::sanitize(p, q, mask, full);
+    let (mut p, mut q, clamped) = support::sanitize_cow(p, q, mask, full);
     // A full mask is one part; the lsq solver needs the labels in every case.
     let iterative = matches!(opts.method, Method::Lsq | Method::Bilateral { .. });
     let comps = (!full || iterative).then(|| label_components(mask));
@@ -531,7 +529,9 @@ pub fn integrate_gradients_with_progress(
             let comps = comps
                 .as_ref()
                 .unwrap_or_else(|| unreachable!("labelled for lsq"));
-            let (z, it) = lsq::integrate(&p, &q, mask, opts.weights.as_ref(), comps, progress)?;
+            let weights = opts.weights.as_ref();
+            let planes = (&mut p, &mut q, remake);
+            let (z, it) = lsq::integrate_planes(planes, mask, weights, comps, progress)?;
             info.iterations = it;
             z
         }

@@ -1,7 +1,7 @@
 //! Helpers shared by the integrators: input clean-up, connected parts, residuals,
 //! offsets.
 
-use crate::image::{DepthMap, GrayImage, Image, Mask};
+use crate::image::{DepthMap, GrayImage, Image, Mask, NormalMap};
 use rayon::prelude::*;
 use std::borrow::Cow;
 
@@ -70,39 +70,38 @@ pub fn sanitize<'a>(
     mask: &Mask,
     full: bool,
 ) -> (Cow<'a, [f32]>, Cow<'a, [f32]>, usize) {
-    if full && all_finite_par(&p.data) && all_finite_par(&q.data) {
-        return (Cow::Borrowed(&p.data), Cow::Borrowed(&q.data), 0);
+    sanitize_cow(Cow::Borrowed(&p.data), Cow::Borrowed(&q.data), mask, full)
+}
+
+/// [`sanitize`] of gradients the caller may hand over: owned ones are cleaned in place
+/// (no second copy of the two planes: at 4096² that is 134 MB less at the peak of the
+/// integration), borrowed ones copied only when something needs cleaning.
+pub(crate) fn sanitize_cow<'a>(
+    p: Cow<'a, [f32]>,
+    q: Cow<'a, [f32]>,
+    mask: &Mask,
+    full: bool,
+) -> (Cow<'a, [f32]>, Cow<'a, [f32]>, usize) {
+    if full && all_finite_par(&p) && all_finite_par(&q) {
+        return (p, q, 0);
     }
-    let clean = |src: &GrayImage| -> (Vec<f32>, usize) {
-        let bad = std::sync::atomic::AtomicUsize::new(0);
-        let out = src
-            .data
-            .par_iter()
-            .zip(&mask.data)
-            .map(|(&v, &m)| match (m, v.is_finite()) {
-                (false, _) => 0.0,
-                (true, true) => v,
-                (true, false) => {
-                    bad.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    0.0
-                }
-            })
-            .collect();
-        (out, bad.into_inner())
+    // A pixel with p or q bad (or both) counts once.
+    let bad = p
+        .par_iter()
+        .zip(&q[..])
+        .zip(&mask.data)
+        .filter(|((a, b), &m)| m && !(a.is_finite() && b.is_finite()))
+        .count();
+    let clean = |v: &mut [f32]| {
+        v.par_iter_mut().zip(&mask.data).for_each(|(v, &m)| {
+            if !m || !v.is_finite() {
+                *v = 0.0;
+            }
+        })
     };
-    let ((pp, bp), (qq, bq)) = rayon::join(|| clean(p), || clean(q));
-    // A pixel with both p and q bad counts once.
-    let both = if bp > 0 && bq > 0 {
-        p.data
-            .par_iter()
-            .zip(&q.data)
-            .zip(&mask.data)
-            .filter(|((a, b), &m)| m && !a.is_finite() && !b.is_finite())
-            .count()
-    } else {
-        0
-    };
-    (Cow::Owned(pp), Cow::Owned(qq), bp + bq - both)
+    let (mut p, mut q) = (p.into_owned(), q.into_owned());
+    rayon::join(|| clean(&mut p), || clean(&mut q));
+    (Cow::Owned(p), Cow::Owned(q), bad)
 }
 
 /// What one pass over the solved depth measures.
@@ -309,5 +308,75 @@ pub fn center_components(z: &[f32], comps: &Components, w: usize, h: usize) -> D
         width: w,
         height: h,
         data,
+    }
+}
+
+/// Gradients (p, q) of a normal map inside the mask (0 outside), and the number of
+/// normals that had to be clamped (see the module documentation of `integrate`).
+pub fn gradients(normals: &NormalMap, mask: &Mask, min_nz: f32) -> (GrayImage, GrayImage, usize) {
+    let (w, h) = (normals.width, normals.height);
+    let mut p = GrayImage::filled(w, h, 0.0);
+    let mut q = GrayImage::filled(w, h, 0.0);
+    let mut clamped = 0;
+    for (i, n) in normals.data.iter().enumerate() {
+        if !mask.data.get(i).copied().unwrap_or(false) {
+            continue;
+        }
+        if n.iter().any(|v| v.is_nan()) {
+            clamped += 1;
+            continue;
+        }
+        let nz = if n[2] > min_nz {
+            n[2]
+        } else {
+            clamped += 1;
+            min_nz.max(f32::MIN_POSITIVE)
+        };
+        p.data[i] = (-n[0] / nz).clamp(-1e6, 1e6);
+        q.data[i] = (-n[1] / nz).clamp(-1e6, 1e6);
+    }
+    (p, q, clamped)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn owned_gradients_are_cleaned_in_place_like_borrowed_ones() {
+        let mask: Mask = Image::from_fn(4, 3, |r, c| (r + c) % 3 != 0);
+        let p = Image::from_fn(4, 3, |r, c| match (r, c) {
+            (0, 1) => f32::NAN,
+            (1, 1) => f32::INFINITY,
+            (2, 1) => f32::NAN,
+            _ => (r * 4 + c) as f32 * 0.5,
+        });
+        let q = Image::from_fn(4, 3, |r, c| match (r, c) {
+            (0, 1) => f32::NAN,
+            (2, 3) => f32::NEG_INFINITY,
+            _ => -((r + c) as f32),
+        });
+        let (bp, bq, bad) = sanitize(&p, &q, &mask, false);
+        let owned = sanitize_cow(
+            Cow::Owned(p.data.clone()),
+            Cow::Owned(q.data.clone()),
+            &mask,
+            false,
+        );
+        assert_eq!(
+            (&bp[..], &bq[..], bad),
+            (&owned.0[..], &owned.1[..], owned.2)
+        );
+        // (0,1) bad in both counts once; (1,1) in p; (2,3) in q; (2,1) is outside the mask
+        assert_eq!(bad, 3);
+        for i in 0..12 {
+            let keep = mask.data[i] && p.data[i].is_finite();
+            assert_eq!(bp[i], if keep { p.data[i] } else { 0.0 }, "p at {i}");
+        }
+        // a full mask of finite values is handed back as it came
+        let full = Mask::full(4, 3);
+        let clean = Image::from_fn(4, 3, |r, c| (r + c) as f32);
+        let (a, _, n) = sanitize(&clean, &clean, &full, true);
+        assert!(matches!(a, Cow::Borrowed(_)) && n == 0);
     }
 }
