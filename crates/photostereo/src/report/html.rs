@@ -179,7 +179,10 @@ fn viewer_section(s: &mut String, r: &Report) {
          &nbsp; drag: rotate · wheel: zoom · right-drag: pan · {} triangles{}</div>",
         mesh.triangles(),
         if mesh.stride > 1 {
-            format!(" (every {}th pixel)", mesh.stride)
+            format!(
+                " (decimated for the page: one vertex every {} rows and columns)",
+                mesh.stride
+            )
         } else {
             String::new()
         }
