@@ -131,6 +131,21 @@ fn large_depth_maps_are_decimated_by_striding() {
 }
 
 #[test]
+fn maps_bigger_than_the_page_are_shrunk_and_the_caption_says_so() {
+    let depth = cap(2100, 300, 140.0);
+    let mut report = Report::new("wide");
+    report.depth(&depth);
+    let html = report.to_html().unwrap();
+    let img = png(&html, 0);
+    // 2100 px wide: box averages of 3 × 3 pixels, 700 × 100
+    assert_eq!((img.width(), img.height()), (700, 100));
+    assert!(
+        html.contains("(shown at 700×100, box averages of the 2100×300 map)"),
+        "caption"
+    );
+}
+
+#[test]
 fn bad_input_gets_clear_errors() {
     let depth = cap(20, 20, 8.0);
     let mut report = Report::new("bad");

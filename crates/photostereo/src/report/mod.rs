@@ -309,10 +309,20 @@ impl Report {
     }
 
     fn push(&mut self, section: Section, caption: &str, rgb: Rgb, legend: Option<Legend>) {
+        let picture = raster::shrink(&rgb, MAX_MAP_SIDE);
+        // a big capture's map is shown smaller than it is: the caption says so
+        let caption = if picture.width < rgb.width {
+            format!(
+                "{caption} (shown at {}×{}, box averages of the {}×{} map)",
+                picture.width, picture.height, rgb.width, rgb.height
+            )
+        } else {
+            caption.to_string()
+        };
         self.figures.push(Figure {
             section,
-            caption: caption.into(),
-            picture: Picture::Raster(raster::shrink(&rgb, MAX_MAP_SIDE)),
+            caption,
+            picture: Picture::Raster(picture),
             legend,
         });
     }
