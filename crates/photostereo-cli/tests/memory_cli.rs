@@ -33,7 +33,7 @@ fn the_budget_sets_the_bands_and_an_impossible_one_stops_the_run() {
         s(&data),
     ]);
     let sphere = data.join("sphere");
-    // a budget of 2 MiB cannot hold a 160² grid: refused, nothing written
+    // a budget of 2 MiB cannot hold a run: refused, nothing written
     let out = dir.join("over");
     let (ok, _, err) = photostereo(&[
         "run",
@@ -52,7 +52,8 @@ fn the_budget_sets_the_bands_and_an_impossible_one_stops_the_run() {
         "the CLI names its flag: {err}"
     );
     assert!(!out.exists(), "no output for a refused run");
-    // 6.1 MiB at one row per band: 7 MiB gives bands of some 60 rows
+    // 131.8 MiB at one row per band (128 MiB of it the run's size-independent part,
+    // plan::RUN_BYTES), 13.75 KiB per row: 132.5 MiB gives bands of some 50 rows
     let banded = dir.join("banded");
     let (ok, _, err) = photostereo(&[
         "run",
@@ -62,7 +63,7 @@ fn the_budget_sets_the_bands_and_an_impossible_one_stops_the_run() {
         "-o",
         s(&banded),
         "--memory",
-        "7M",
+        "132.5M",
     ]);
     assert!(ok, "{err}");
     assert!(err.contains("memory plan: about"), "{err}");

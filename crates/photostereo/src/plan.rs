@@ -13,9 +13,16 @@
 //! image when it fits: then it is read once). A capture whose need at one row per band
 //! is over the budget is refused before any pixel is read, with the amount it needs.
 //!
-//! [`GRID_BYTES_PER_PIXEL`] is measured, not derived: the highest peak resident memory
-//! of `run --sphere` on the vase of docs/benchmarks.md ("Big captures") outside the
-//! reading of bands, less the fixed bytes, per pixel of the grid, with a margin. Since
+//! [`GRID_BYTES_PER_PIXEL`] and [`RUN_BYTES`] are measured, not derived: after the
+//! integration stopped holding the gradient planes through its solve, the peaks of
+//! `run --sphere` on the vase of docs/benchmarks.md ("Big captures"), less the band and
+//! the fixed bytes, were 1098 MiB at 4096² (68.6 B per pixel), 335 MiB at 2048² and
+//! 161 MiB at 1024²: a size-independent ~100 MiB (program, table and index) plus about
+//! 64 B per pixel, which 64 B per pixel and 128 MiB cover at the three sizes (the plan
+//! 1.2 / 0.64 / 0.39 GiB against 1.37 / 0.59 / 0.36 GiB measured with its bands).
+//! Before that cut the figures were higher; the history: the highest peak resident
+//! memory outside the reading of bands, less the fixed bytes, per pixel of the grid,
+//! with a margin. Since
 //! the spatial stage stores per mask pixel (issue 26) that peak is the integration's
 //! (dense f64 least squares on the H×W grid, beside the normals, their maps and the
 //! ground truth): 546 MiB at 2048² (119 B per pixel) and 1904 MiB at 4096² (114 B per
@@ -29,7 +36,10 @@ use crate::io::StackHeader;
 use std::fmt;
 
 /// Bytes per pixel of the H×W grid at the peak of a run (measured; module docs).
-pub const GRID_BYTES_PER_PIXEL: u64 = 128;
+pub const GRID_BYTES_PER_PIXEL: u64 = 64;
+/// Bytes of a run whatever its size: the program, the lookup table and its index, the
+/// report's pieces (measured; module docs).
+pub const RUN_BYTES: u64 = 128 << 20;
 /// Bytes per pixel of a band beside its K float samples: the lookup's or the evidence's
 /// outputs for the band (normals, confidence, residual, albedo, counts; u, A, g).
 pub const BAND_BYTES_PER_PIXEL: u64 = 40;
@@ -73,8 +83,11 @@ impl Plan {
 pub fn plan(header: &StackHeader, extra_bytes: u64, budget: u64) -> Result<Plan> {
     let (w, h, k) = (header.width as u64, header.height as u64, header.k() as u64);
     let grid_bytes = w * h * GRID_BYTES_PER_PIXEL;
-    let fixed_bytes =
-        header.whole_bytes() + header.row_reader_bytes() + k * CHUNK_ROWS * w * 4 + extra_bytes;
+    let fixed_bytes = RUN_BYTES
+        + header.whole_bytes()
+        + header.row_reader_bytes()
+        + k * CHUNK_ROWS * w * 4
+        + extra_bytes;
     let row_bytes = w * (4 * k + BAND_BYTES_PER_PIXEL);
     let base = grid_bytes + fixed_bytes;
     let whole_images = header.layout.iter().filter(|(_, rows)| !rows).count();
@@ -231,8 +244,8 @@ mod tests {
     #[test]
     fn the_band_height_keeps_the_peak_within_the_budget() {
         let hd = header(4096, 4096, 32, true);
-        // 2 GiB of grid and 2.6 GiB of band for one band: 4 GiB needs several
-        let budget = 4 << 30;
+        // 1 GiB of grid and 2.6 GiB of band for one band: 3 GiB needs several
+        let budget = 3 << 30;
         let p = plan(&hd, 0, budget).unwrap();
         assert!(p.bands > 1, "{p}");
         assert!(p.peak_bytes <= budget, "{p}");
@@ -250,6 +263,7 @@ mod tests {
         assert!(err.contains("held whole"), "{err}");
         // the amount said is the minimum: that budget is accepted
         let need = 8192 * 8192 * GRID_BYTES_PER_PIXEL
+            + RUN_BYTES
             + hd.whole_bytes()
             + hd.row_reader_bytes()
             + 60 * CHUNK_ROWS * 8192 * 4
