@@ -18,13 +18,25 @@ const FIX: &str = "give the path of an existing .npy file";
 /// Read an `.npy` file whole, after checking that its header is sound and that the
 /// file holds exactly the data the header claims (see [`limits`]): `ndarray-npy`
 /// allocates what the shape claims before reading, so a lying header must not reach it.
-fn read_checked(path: &Path) -> Result<Vec<u8>> {
+fn read_checked(path: &Path) -> Result<Checked> {
     let bytes = read_file(path, FIX)?;
-    check_npy(&bytes).map_err(|message| Error::Decode {
+    let (claim, start) = check_npy(&bytes).map_err(|message| Error::Decode {
         path: path.to_path_buf(),
         message,
     })?;
-    Ok(bytes)
+    Ok(Checked {
+        bytes,
+        claim,
+        start,
+    })
+}
+
+/// A whole `.npy` file whose header was checked: its bytes, what the header claims and
+/// where the data starts.
+struct Checked {
+    bytes: Vec<u8>,
+    claim: Claim,
+    start: usize,
 }
 
 /// What an `.npy` header claims: the element size (bytes) and the shape.
@@ -37,8 +49,9 @@ struct Claim {
     plain_f32: bool,
 }
 
-/// Check the header of an `.npy` file against its length and the limits.
-fn check_npy(bytes: &[u8]) -> std::result::Result<(), String> {
+/// Check the header of an `.npy` file against its length and the limits; returns the
+/// claim and where the data starts.
+fn check_npy(bytes: &[u8]) -> std::result::Result<(Claim, usize), String> {
     let (claim, data_start) = parse_header(bytes)?;
     let mut count: u64 = 1;
     for &d in &claim.shape {
@@ -68,7 +81,7 @@ fn check_npy(bytes: &[u8]) -> std::result::Result<(), String> {
             ));
         }
     }
-    Ok(())
+    Ok((claim, data_start))
 }
 
 /// Parse the magic, version, header length and the `descr` and `shape` entries of the
@@ -168,12 +181,12 @@ fn is_plain_f32(text: &str) -> bool {
 /// The shape and the elements (`T`: f32 or [f32; 3], plain old data) of a checked
 /// little-endian float32 C-order file, copied once from the file's bytes; `None` for
 /// any other layout, or when the last axis does not fit `T`, or on a big-endian machine.
-fn read_plain<T: bytemuck::Pod>(bytes: &[u8]) -> Option<(Vec<usize>, Vec<T>)> {
+fn read_plain<T: bytemuck::Pod>(file: &Checked) -> Option<(Vec<usize>, Vec<T>)> {
     if cfg!(target_endian = "big") {
         return None;
     }
-    let (claim, start) = parse_header(bytes).ok()?;
-    let data = &bytes[start..];
+    let claim = &file.claim;
+    let data = &file.bytes[file.start..];
     let size = std::mem::size_of::<T>();
     if !claim.plain_f32 || size == 0 || data.len() % size != 0 {
         return None;
@@ -212,13 +225,13 @@ fn shape_error(path: &Path, shape: &[usize], expected: &str) -> Error {
 
 /// Read a normal map stored as an (H, W, 3) float array.
 pub fn read_normals_npy(path: &Path) -> Result<NormalMap> {
-    let bytes = read_checked(path)?;
-    if let Some((shape, data)) = read_plain::<[f32; 3]>(&bytes) {
+    let file = read_checked(path)?;
+    if let Some((shape, data)) = read_plain::<[f32; 3]>(&file) {
         if let [h, w, 3] = shape[..] {
             return Image::from_vec(w, h, data);
         }
     }
-    let a = read_f32_bytes(path, &bytes)?;
+    let a = read_f32_bytes(path, &file.bytes)?;
     let shape = a.shape().to_vec();
     if shape.len() != 3 || shape[2] != 3 {
         return Err(shape_error(path, &shape, "(H, W, 3)"));
@@ -236,13 +249,13 @@ pub fn read_normals_npy(path: &Path) -> Result<NormalMap> {
 /// Read a gray image or depth map stored as an (H, W) float array (an (H, W, 1) array
 /// is accepted too).
 pub fn read_gray_npy(path: &Path) -> Result<GrayImage> {
-    let bytes = read_checked(path)?;
-    if let Some((shape, data)) = read_plain::<f32>(&bytes) {
+    let file = read_checked(path)?;
+    if let Some((shape, data)) = read_plain::<f32>(&file) {
         if let [h, w] | [h, w, 1] = shape[..] {
             return Image::from_vec(w, h, data);
         }
     }
-    let a = read_f32_bytes(path, &bytes)?;
+    let a = read_f32_bytes(path, &file.bytes)?;
     let shape = a.shape().to_vec();
     let ok = shape.len() == 2 || (shape.len() == 3 && shape[2] == 1);
     if !ok {
@@ -255,7 +268,7 @@ pub fn read_gray_npy(path: &Path) -> Result<GrayImage> {
 /// Read a mask stored as an (H, W) array of bool, uint8, int64, float32 or float64;
 /// non-zero (and not NaN) = inside.
 pub fn read_mask_npy(path: &Path) -> Result<Mask> {
-    let bytes = read_checked(path)?;
+    let bytes = read_checked(path)?.bytes;
     fn try_read<T: ReadableElement + Clone>(
         bytes: &[u8],
         inside: impl Fn(&T) -> bool,
