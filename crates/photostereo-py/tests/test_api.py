@@ -417,3 +417,14 @@ def test_calibrate_denoise_option(data):
     # On this clean sphere a 1.5 px blur of the images only biases the table (σ²/2·ΔI);
     # the normal-space quadratic fit reproduces smooth shading, so it errs less.
     assert errs["normal"] < errs["image"], errs
+
+
+def test_run_memory_budget_is_checked_before_any_output(data, tmp_path):
+    """A malformed memory size and a budget too small for the capture are ValueErrors
+    that say what is wrong, and leave no output folder."""
+    out = tmp_path / "mem"
+    with pytest.raises(ValueError, match="lots"):
+        ps.run(data["vase"], out, sphere=data["sphere"], memory="lots")
+    with pytest.raises(ValueError, match="need at least .* over the memory budget of 64.0 KiB"):
+        ps.run(data["vase"], out, sphere=data["sphere"], memory="64K")
+    assert not out.exists()
