@@ -51,6 +51,7 @@
 use super::camera::Camera;
 use super::lsq::{Assembled, PRIOR};
 use super::support::Components;
+use super::window::Window;
 use crate::error::Result;
 use crate::image::{Mask, NormalMap};
 use crate::progress::Progress;
@@ -274,7 +275,43 @@ fn reweight(
 }
 
 /// Run BiNI on a field; `conf` holds the per-pixel confidences (1 without a map).
+/// The iteration runs on the mask's bounding box (module `window`): pixels outside
+/// the mask take no part in it, and every sweep costs per cell of the grid.
 pub(crate) fn integrate(
+    f: &Field,
+    conf: &[f64],
+    mask: &Mask,
+    comps: &Components,
+    params: Params,
+    progress: &dyn Progress,
+) -> Result<Solution> {
+    let Some(win) = Window::of(mask) else {
+        return integrate_grid(f, conf, mask, comps, params, progress);
+    };
+    let field = Field {
+        g_h: win.take(&f.g_h),
+        g_v: win.take(&f.g_v),
+        a_h: win.take(&f.a_h),
+        a_v: win.take(&f.a_v),
+    };
+    // Labels keep their numbers: the box holds every pixel of every part, in the same
+    // raster order.
+    let parts = Components {
+        labels: win.take(&comps.labels),
+        count: comps.count,
+    };
+    let (boxed, conf) = (win.mask(mask), win.take(conf));
+    let sol = integrate_grid(&field, &conf, &boxed, &parts, params, progress)?;
+    Ok(Solution {
+        v: win.put(&sol.v, 0.0),
+        cut_east: win.put(&sol.cut_east, false),
+        cut_south: win.put(&sol.cut_south, false),
+        ..sol
+    })
+}
+
+/// [`integrate`] on the whole grid of `mask`.
+fn integrate_grid(
     f: &Field,
     conf: &[f64],
     mask: &Mask,

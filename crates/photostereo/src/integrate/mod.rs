@@ -68,6 +68,7 @@ pub mod path;
 mod spectrum;
 mod support;
 mod trust;
+mod window;
 
 use crate::error::{Error, Result};
 use crate::image::{DepthMap, GrayImage, Mask, NormalMap};
