@@ -23,6 +23,7 @@
 
 use super::multigrid::System;
 use super::support::Components;
+use super::window::Window;
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, Mask};
 use crate::progress::Progress;
@@ -222,10 +223,17 @@ struct Padded {
 }
 
 impl Padded {
-    fn assemble(p: &[f32], q: &[f32], mask: &Mask, weights: Option<&GrayImage>) -> Self {
-        let (w, h) = (mask.width, mask.height);
-        let s = w + 2;
-        let n = s * (h + 2);
+    /// Assembled on the window `win` of the grid (the mask's bounding box: the solver's
+    /// cost is per cell of its grid, and pixels outside the mask have no equations).
+    fn assemble(
+        (p, q): (&[f32], &[f32]),
+        mask: &Mask,
+        weights: Option<&GrayImage>,
+        win: &Window,
+    ) -> Self {
+        let w = mask.width;
+        let s = win.w + 2;
+        let n = s * (win.h + 2);
         // Pixel weights only with a map (1 everywhere otherwise).
         let wt = weights.map(|_| pixel_weights(weights, mask));
         let pair = |i: usize, j: usize| wt.as_ref().map_or(1.0, |v| v[i].min(v[j]));
@@ -233,20 +241,23 @@ impl Padded {
         let (mut east, mut south) = (vec![0.0f32; n], vec![0.0f32; n]);
         // Updated in place (read, then written): zeroed by writing (see `written_zeros`).
         let mut rhs = written_zeros(n);
-        for r in 0..h {
-            for c in 0..w {
-                let (i, k) = (r * w + c, (r + 1) * s + c + 1);
+        // Neighbours past the window's right or lower side are outside the mask.
+        let (c_end, r_end) = (win.c0 + win.w, win.r0 + win.h);
+        for r in win.r0..r_end {
+            for c in win.c0..c_end {
+                let i = r * w + c;
+                let k = (r - win.r0 + 1) * s + c - win.c0 + 1;
                 if !mask.data[i] {
                     continue;
                 }
-                if c + 1 < w && mask.data[i + 1] {
+                if c + 1 < c_end && mask.data[i + 1] {
                     let g = 0.5 * (p[i] as f64 + p[i + 1] as f64);
                     let (t, g) = with_prior(pair(i, i + 1), g, prior);
                     east[k] = t as f32;
                     rhs[k] -= t * g;
                     rhs[k + 1] += t * g;
                 }
-                if r + 1 < h && mask.data[i + w] {
+                if r + 1 < r_end && mask.data[i + w] {
                     let g = -0.5 * (q[i] as f64 + q[i + w] as f64);
                     let (t, g) = with_prior(pair(i, i + w), g, prior);
                     south[k] = t as f32;
@@ -264,15 +275,16 @@ impl Padded {
     }
 
     /// Pin the first pixel of every part as [`Assembled::pin`] does.
-    fn pin(&mut self, comps: &Components, w: usize) {
-        let s = w + 2;
+    fn pin(&mut self, comps: &Components, win: &Window) {
+        let (w, s) = (win.full_w, win.w + 2);
         let mut pinned = vec![false; comps.count];
         for (i, &l) in comps.labels.iter().enumerate() {
             if l == u32::MAX || pinned[l as usize] {
                 continue;
             }
             pinned[l as usize] = true;
-            let k = (i / w + 1) * s + i % w + 1;
+            // Every mask pixel is inside the window.
+            let k = (i / w - win.r0 + 1) * s + i % w - win.c0 + 1;
             let (e, so) = (&self.east, &self.south);
             let d = [e[k], e[k - 1], so[k], so[k - s]]
                 .iter()
@@ -341,14 +353,17 @@ pub(crate) fn integrate(
     progress: &dyn Progress,
 ) -> Result<(Vec<f32>, usize)> {
     let (w, h) = (mask.width, mask.height);
-    let s = w + 2;
+    let win = Window::around(mask);
+    let s = win.w + 2;
     progress.start("lsq: assemble, solve", 2);
     // handed-over planes are dropped at the end of their arm, before the solve
     let (mut sys, source) = match grads {
-        Gradients::Kept(p, q) => (Padded::assemble(p, q, mask, weights), Ok((p, q))),
-        Gradients::Handed(p, q, remake) => (Padded::assemble(&p, &q, mask, weights), Err(remake)),
+        Gradients::Kept(p, q) => (Padded::assemble((p, q), mask, weights, &win), Ok((p, q))),
+        Gradients::Handed(p, q, remake) => {
+            (Padded::assemble((&p, &q), mask, weights, &win), Err(remake))
+        }
     };
-    sys.pin(comps, w);
+    sys.pin(comps, &win);
     progress.advance(1);
     // CG's first access to x is x ← x + α p (a read): zeroed by writing.
     let mut x = written_zeros(sys.rhs.len());
@@ -358,13 +373,14 @@ pub(crate) fn integrate(
         rhs,
         pins,
     } = sys;
-    let solver = System::from_padded(w, h, east, south, pins);
+    let solver = System::from_padded(win.w, win.h, east, south, pins);
     let out = solver.solve_padded(rhs, &mut x, false, TOL, MAX_ITER);
     let (z, iterations) = if out.relative_residual <= TOL * 10.0 {
         let mut z = vec![0.0f32; w * h];
-        for r in 0..h {
-            let row = &x[(r + 1) * s + 1..(r + 1) * s + 1 + w];
-            z[r * w..(r + 1) * w]
+        for r in 0..win.h {
+            let row = &x[(r + 1) * s + 1..(r + 1) * s + 1 + win.w];
+            let start = (win.r0 + r) * w + win.c0;
+            z[start..start + win.w]
                 .iter_mut()
                 .zip(row)
                 .for_each(|(o, &v)| *o = v as f32);
@@ -374,17 +390,65 @@ pub(crate) fn integrate(
         // CG did not converge (not seen; see the module documentation): assemble again
         // for the exact solver.
         let mut again = match source {
-            Ok((p, q)) => Padded::assemble(p, q, mask, weights),
+            Ok((p, q)) => Padded::assemble((p, q), mask, weights, &win),
             Err(remake) => {
                 let (p, q) = remake();
-                Padded::assemble(&p, &q, mask, weights)
+                Padded::assemble((&p, &q), mask, weights, &win)
             }
         };
-        again.pin(comps, w);
-        let exact = again.unpadded(w, h).cholesky(mask)?;
-        (exact.iter().map(|&v| v as f32).collect(), 0)
+        again.pin(comps, &win);
+        let exact = again.unpadded(win.w, win.h).cholesky(&win.mask(mask))?;
+        let exact: Vec<f32> = exact.iter().map(|&v| v as f32).collect();
+        (win.put(&exact, 0.0), 0)
     };
     progress.advance(1);
     progress.finish();
     Ok((z, iterations))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image::Image;
+    use crate::integrate::label_components;
+    use crate::progress::NoProgress;
+
+    /// An object in a corner of a bigger image, in two parts: the solve on its bounding
+    /// box (multigrid CG) and the exact fallback on the same box agree, and both leave
+    /// the pixels outside the mask at 0.
+    #[test]
+    fn boxed_solve_matches_the_exact_fallback() {
+        let (w, h) = (40, 30);
+        let mask: Mask = Image::from_fn(w, h, |r, c| {
+            (5..17).contains(&r) && (22..37).contains(&c) && c != 29
+        });
+        let p: Vec<f32> = (0..w * h).map(|i| ((i % w) as f32 * 0.1).sin()).collect();
+        let q: Vec<f32> = (0..w * h).map(|i| ((i / w) as f32 * 0.07).cos()).collect();
+        let comps = label_components(&mask);
+        assert_eq!(comps.count, 2);
+        let grads = Gradients::Kept(&p, &q);
+        let (z, iterations) = integrate(grads, &mask, None, &comps, &NoProgress).unwrap();
+        assert!(iterations > 0);
+        let win = Window::around(&mask);
+        assert_eq!((win.c0, win.r0, win.w, win.h), (22, 5, 15, 12));
+        let mut sys = Padded::assemble((&p, &q), &mask, None, &win);
+        sys.pin(&comps, &win);
+        let exact = sys
+            .unpadded(win.w, win.h)
+            .cholesky(&win.mask(&mask))
+            .unwrap();
+        let exact = win.put(&exact, 0.0);
+        for i in 0..w * h {
+            if mask.data[i] {
+                assert!(
+                    (z[i] as f64 - exact[i]).abs() < 1e-4,
+                    "{i}: {} {}",
+                    z[i],
+                    exact[i]
+                );
+            } else {
+                assert_eq!((z[i], exact[i]), (0.0, 0.0), "{i}");
+            }
+        }
+    }
 }

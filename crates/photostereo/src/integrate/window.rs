@@ -44,6 +44,18 @@ impl Window {
         (win.w < fw || win.h < fh).then_some(win)
     }
 
+    /// [`Window::of`], or the whole grid.
+    pub fn around(mask: &Mask) -> Self {
+        Window::of(mask).unwrap_or(Window {
+            c0: 0,
+            r0: 0,
+            w: mask.width,
+            h: mask.height,
+            full_w: mask.width,
+            full_h: mask.height,
+        })
+    }
+
     /// The values of a full-grid plane inside the window (row-major).
     pub fn take<T: Copy>(&self, v: &[T]) -> Vec<T> {
         let mut out = Vec::with_capacity(self.w * self.h);
@@ -100,6 +112,7 @@ mod tests {
         // A mask touching all four sides, and an empty one: no window.
         let edges: Mask = Image::from_fn(4, 3, |r, c| r == 0 && c == 0 || r == 2 && c == 3);
         assert_eq!(Window::of(&edges), None);
+        assert_eq!((Window::around(&edges).w, Window::around(&edges).h), (4, 3));
         assert_eq!(Window::of(&Image::filled(4, 3, false)), None);
     }
 }
