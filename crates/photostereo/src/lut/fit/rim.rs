@@ -7,35 +7,57 @@
 //! table's edge. Instead, each light's reflectance is extended past θ_c by a smooth
 //! model over the normal sphere fitted to the outer rings of clean entries:
 //!
-//! I_k(n) = max(0, β_k(φ) · n),
+//! I_k(n) = max(0, β_k(φ) · n) · m(n_z),  m(u) = 1 / (u + √(a² + (1 − a²) u²)),
 //!
 //! a local linear function of the unit normal n (exact for a Lambertian surface, lit or
-//! not, and a first-order model of any smooth reflectance) whose coefficients β_k are
-//! fitted by least squares, per sector of azimuth φ, to the entries with polar angle θ
-//! in [θ_c − 12°, θ_c] and lit by light k (above 1% of the table's brightest sample);
-//! a light dark in the whole sector stays dark beyond it (n·l only decreases towards the
-//! rim where the light is behind the meridian). β_k is interpolated linearly in φ
-//! between sector centres (sectors of about 8 px of arc, each fitted on twice its
-//! width).
+//! not, and a first-order model of any smooth reflectance) times, optionally, Smith's
+//! masking of the view over n·v, G₁(v)/(n·v) of a microfacet surface of width a: the
+//! rise of a rough metal's radiance towards grazing view, which no linear model
+//! follows (GGX α 0.2: ×2.4 from 78.5° to 90° at fixed microfacet term). The
+//! coefficients β_k are fitted by least squares, per sector of azimuth φ, to the entries
+//! with polar angle θ in [θ_c − w, θ_c] and lit by light k (above 0.1% of the table's
+//! brightest sample); a light dark in the whole sector stays dark beyond it (n·l only
+//! decreases towards the rim where the light is behind the meridian). β_k is
+//! interpolated linearly in φ between sector centres (sectors of about 8 px of arc,
+//! each fitted on twice its width).
 //!
-//! A target pixel whose table fit ends within 1 px of the table's edge is refitted on
-//! this model over (θ, φ), θ ∈ [θ_c − 12°, 90°]: a scan of 13 values of θ at the table
-//! fit's azimuth, then Gauss–Newton (analytic Jacobian; a step shorter than 1e-5 rad
-//! ends it, untaken) from the best, with the same lights and scale as the table fit; the
-//! rim fit replaces the table fit only when its residual is lower.
+//! The ring's width w (4, 6, 8 or 12°) and the masking width a (none, 0.1 … 0.5) are
+//! chosen per table: each pair is fitted on [θ_c − 3° − w, θ_c − 3°] and scored by how
+//! well it predicts the table's outermost 3° (all lights, squared error); the best pair
+//! is refitted on [θ_c − w, θ_c]. On `synth` renders (16 lights, 16-bit) the choice is
+//! w = 4° with no masking for a Lambertian and a plastic, w = 4°, a = 0.1 for the GGX
+//! metal (α 0.2) at R = 100; a narrow ring because the model is local.
+//!
+//! A target pixel whose table fit ends beyond θ_c − 24° ([`Rim::tried_below`]) is
+//! refitted on this model over (θ, φ), θ ∈ [θ_c − 12°, 90°]: a scan of 13 values of θ at
+//! the table fit's azimuth, then Gauss–Newton (analytic Jacobian; a step shorter than
+//! 1e-5 rad ends it, untaken) from the best, with the same lights and scale as the
+//! table fit; the rim fit replaces the table fit only when its residual is lower. (Only
+//! fits that end within 1 px of the table's edge were refitted before: a rough metal's
+//! grazing normals, dim, matched dim entries near 60° instead.)
 
 use super::generic::Fit;
 use crate::cpu::Avx;
 use crate::lut::table::Table;
 
-/// Polar-angle width (radians) of the ring of entries the model is fitted to.
+/// Polar-angle width (radians) of the band below the clean ring where the scan starts.
 const RING: f64 = 12.0 * std::f64::consts::PI / 180.0;
+/// Table fits this far (radians) inside the clean ring or beyond are refitted on the
+/// model ([`Rim::tried_below`]).
+const TRIED: f64 = 2.0 * RING;
+/// Candidate widths (radians) of the ring of entries the model is fitted to.
+const RINGS: &[f64] = &[0.0698, 0.1047, 0.1396, 0.2094];
+/// Candidate masking widths a (0: no masking factor).
+const WIDTHS: &[f64] = &[0.0, 0.1, 0.15, 0.2, 0.3, 0.5];
+/// Polar-angle width (radians) of the table's outermost band held out to choose them.
+const HOLD: f64 = 0.0524;
 /// Arc length (pixels) of one azimuth sector.
 const SECTOR_PX: f64 = 8.0;
 /// Fewest lit entries that make a sector's fit for one light.
 const MIN_SAMPLES: usize = 6;
-/// Samples below this fraction of the table's peak count as unlit.
-const DARK: f32 = 0.01;
+/// Samples below this fraction of the table's peak count as unlit (a rough metal's
+/// rim holds about 0.5% of the peak: 1% left most of its lights out of the fit).
+const DARK: f32 = 0.001;
 /// Gauss–Newton iterations of a rim fit.
 const ITERATIONS: usize = 8;
 /// Steps of the scan of θ that starts a rim fit.
@@ -61,6 +83,8 @@ pub(crate) struct Rim {
     scan: Vec<(f64, f64, f64)>,
     /// The processor has AVX: the fit runs on 8-lane vectors (same arithmetic).
     avx: Option<Avx>,
+    /// Width a of the masking factor m(n_z) (None: m = 1).
+    mask_a: Option<f64>,
 }
 
 /// Workspace of one rim fit (every vector padded with zeros to `kp` values).
@@ -117,81 +141,76 @@ fn normal(theta: f64, phi: f64) -> [f64; 3] {
 
 impl Rim {
     /// Fit the model to the outer rings of `table`'s entries; `None` when the table is too
-    /// small to hold a ring.
+    /// small to hold a ring. The ring's width and the masking width are chosen among
+    /// [`RINGS`] × [`WIDTHS`] by how well a fit on the ring moved [`HOLD`] inwards
+    /// predicts the table's outermost [`HOLD`] (module docs).
     pub fn fit(table: &Table) -> Option<Rim> {
-        let (k, r) = (table.k, table.circle.radius);
+        let r = table.circle.radius;
         let rs = table.search_radius();
         let theta_clean = (rs / r).clamp(0.0, 1.0).asin();
-        let theta_lo = theta_clean - RING;
+        let widest = RINGS.iter().copied().fold(RING, f64::max);
+        if theta_clean - widest - HOLD <= 0.0 {
+            return None;
+        }
         let sectors = ((std::f64::consts::TAU * rs / SECTOR_PX).round() as usize).clamp(12, 360);
-        let width = std::f64::consts::TAU / sectors as f64;
-        let dark = DARK * table.peak();
-        // per sector and light: Σ n nᵀ (6 values) and Σ I n (3 values) over lit entries
-        let mut acc = vec![([0.0f64; 6], [0.0f64; 3], 0usize); sectors * k];
-        let e = &table.entries;
-        for (i, n) in e.normals.iter().enumerate() {
-            let n = [n[0] as f64, n[1] as f64, n[2] as f64];
-            let theta = n[2].clamp(-1.0, 1.0).acos();
-            if theta < theta_lo {
-                continue;
-            }
-            let phi = n[1].atan2(n[0]);
-            let centre = (phi / width).round() as i64;
-            for s in centre - 1..=centre + 1 {
-                let d = phi - s as f64 * width;
-                let d = (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-                    - std::f64::consts::PI;
-                if d.abs() > width {
-                    continue;
-                }
-                let s = s.rem_euclid(sectors as i64) as usize;
-                let tuple = &e.tuples[i * k..(i + 1) * k];
-                for (light, &v) in tuple.iter().enumerate() {
-                    if v <= dark {
-                        continue;
-                    }
-                    let (m, b, count) = &mut acc[s * k + light];
-                    let outer = [
-                        n[0] * n[0],
-                        n[0] * n[1],
-                        n[0] * n[2],
-                        n[1] * n[1],
-                        n[1] * n[2],
-                        n[2] * n[2],
-                    ];
-                    m.iter_mut().zip(outer).for_each(|(a, o)| *a += o);
-                    (0..3).for_each(|j| b[j] += v as f64 * n[j]);
-                    *count += 1;
-                }
-            }
-        }
-        let kp = padded(k);
-        let mut beta = vec![0.0f32; sectors * 3 * kp];
-        for (i, (m, b, count)) in acc.iter().enumerate() {
-            if *count < MIN_SAMPLES {
-                continue;
-            }
-            let (s, light) = (i / k, i % k);
-            if let Some(x) = solve3(m, b) {
-                (0..3).for_each(|j| beta[(s * 3 + j) * kp + light] = x[j] as f32);
-            }
-        }
-        let hi = std::f64::consts::FRAC_PI_2;
-        let scan = (0..=SCAN)
-            .map(|j| {
-                let theta = theta_lo + (hi - theta_lo) * j as f64 / SCAN as f64;
-                (theta, theta.sin(), theta.cos())
-            })
-            .collect();
-        (theta_lo > 0.0).then_some(Rim {
-            k,
-            kp,
+        let mut rim = Rim {
+            k: table.k,
+            kp: padded(table.k),
             sectors,
-            beta,
+            beta: Vec::new(),
             theta_clean,
-            scan,
+            scan: scan_thetas(theta_clean - RING),
             avx: Avx::detect(),
-        })
+            mask_a: None,
+        };
+        let dark = DARK * table.peak();
+        let mut best = (f64::INFINITY, RINGS[0], None);
+        for &ring in RINGS {
+            for &a in WIDTHS {
+                let a = (a > 0.0).then_some(a);
+                let hi = theta_clean - HOLD;
+                rim.mask_a = a;
+                rim.beta = fit_beta(table, sectors, (hi - ring, hi), a, dark);
+                let err = rim.held_out_error(table, hi);
+                if err < best.0 {
+                    best = (err, ring, a);
+                }
+            }
+        }
+        let (_, ring, a) = best;
+        rim.mask_a = a;
+        rim.beta = fit_beta(table, sectors, (theta_clean - ring, theta_clean), a, dark);
+        Some(rim)
+    }
+
+    /// n_z below which a table fit is refitted on the model: θ ≥ θ_c − 2 × 12°. A
+    /// grazing normal of a rough metal is dim, and its table fit often lands on a dim
+    /// region of the table 20° inside the rim (GGX α 0.2: θ 57–62° for normals at
+    /// 85–90°), not at the table's edge.
+    pub fn tried_below(&self) -> f64 {
+        (self.theta_clean - TRIED).max(0.0).cos()
+    }
+
+    /// Sum of squared differences between the model and the table's entries with polar
+    /// angle above `from`, over every light.
+    fn held_out_error(&self, table: &Table, from: f64) -> f64 {
+        let k = self.k;
+        let mut b = RimBuf::new(k);
+        let e = &table.entries;
+        let mut err = 0.0f64;
+        for (i, n) in e.normals.iter().enumerate() {
+            if (n[2] as f64).clamp(-1.0, 1.0).acos() < from {
+                continue;
+            }
+            let p = self.tuple(*n, &mut b);
+            let tuple = &e.tuples[i * k..(i + 1) * k];
+            err += p
+                .iter()
+                .zip(tuple)
+                .map(|(p, v)| f64::from(p - v).powi(2))
+                .sum::<f64>();
+        }
+        err
     }
 
     /// The model's tuple at unit normal `n` (θ = acos n_z, φ = atan2(n_y, n_x)).
@@ -210,7 +229,7 @@ impl Rim {
         let (sp, cp) = phi.sin_cos();
         b.trig = [st, ct, sp, cp];
         self.interpolate(phi, b);
-        Self::at([(st * cp) as f32, (st * sp) as f32, ct as f32], b);
+        Self::at([(st * cp) as f32, (st * sp) as f32, ct as f32], masking(self.mask_a, ct) as f32, b);
     }
 
     /// The derivatives of the tuple with respect to θ and φ at the point of the last
@@ -225,12 +244,15 @@ impl Rim {
         let (bx, by, bz) = (&b.beta[..kp], &b.beta[kp..2 * kp], &b.beta[2 * kp..]);
         let (dx, dy, dz) = (&b.dbeta[..kp], &b.dbeta[kp..2 * kp], &b.dbeta[2 * kp..]);
         let (p, px, py) = (&b.p[..kp], &mut b.px[..kp], &mut b.py[..kp]);
+        let m = masking(self.mask_a, ct) as f32;
+        // d(ln m)/dθ
+        let dl = (masking_dlog(self.mask_a, ct) * -st) as f32;
         for i in 0..kp {
             let lit = p[i] > 0.0;
             let gt = bx[i] * nt[0] + by[i] * nt[1] + bz[i] * nt[2];
             let gp = (bx[i] * np[0] + by[i] * np[1]) + (dx[i] * n[0] + dy[i] * n[1] + dz[i] * n[2]);
-            px[i] = if lit { gt } else { 0.0 };
-            py[i] = if lit { gp } else { 0.0 };
+            px[i] = if lit { m * gt + p[i] * dl } else { 0.0 };
+            py[i] = if lit { m * gp } else { 0.0 };
         }
     }
 
@@ -261,11 +283,11 @@ impl Rim {
     /// The model's tuple max(0, β·n) at unit normal `n` into `b.p`, with β the
     /// interpolated coefficients in `b.beta`.
     #[inline(always)]
-    fn at(n: [f32; 3], b: &mut RimBuf) {
+    fn at(n: [f32; 3], m: f32, b: &mut RimBuf) {
         let kp = b.p.len();
         let (bx, by, bz) = (&b.beta[..kp], &b.beta[kp..2 * kp], &b.beta[2 * kp..]);
         for (i, p) in b.p.iter_mut().enumerate() {
-            *p = (bx[i] * n[0] + by[i] * n[1] + bz[i] * n[2]).max(0.0);
+            *p = (bx[i] * n[0] + by[i] * n[1] + bz[i] * n[2]).max(0.0) * m;
         }
     }
 
@@ -371,10 +393,11 @@ impl Rim {
         }
         let mut best = (self.theta_clean - RING, f32::INFINITY);
         for &(theta, st, ct) in &self.scan {
+            let m = masking(self.mask_a, ct) as f32;
             let (st, ct) = (st as f32, ct as f32);
             let cost = if scale {
                 for ((p, &a), &z) in b.p.iter_mut().zip(&b.a).zip(bz) {
-                    *p = (st * a + ct * z).max(0.0);
+                    *p = (st * a + ct * z).max(0.0) * m;
                 }
                 Self::cost(b, true).1
             } else {
@@ -383,7 +406,7 @@ impl Rim {
                 let target = b.t.chunks_exact(LANES).zip(b.w.chunks_exact(LANES));
                 for ((a, z), (t, w)) in model.zip(target) {
                     for j in 0..LANES {
-                        let p = (st * a[j] + ct * z[j]).max(0.0);
+                        let p = (st * a[j] + ct * z[j]).max(0.0) * m;
                         acc[j] += w[j] * (t[j] - p).powi(2);
                     }
                 }
@@ -507,6 +530,77 @@ impl Rim {
     }
 }
 
+/// The scan's values of θ from `lo` to 90° with their sine and cosine.
+fn scan_thetas(lo: f64) -> Vec<(f64, f64, f64)> {
+    let hi = std::f64::consts::FRAC_PI_2;
+    (0..=SCAN)
+        .map(|j| {
+            let theta = lo + (hi - lo) * j as f64 / SCAN as f64;
+            (theta, theta.sin(), theta.cos())
+        })
+        .collect()
+}
+
+/// β of every sector and light (`Rim::beta`'s layout), fitted by least squares to the
+/// entries with polar angle in `band` lit above `dark`, with the masking width `a`.
+fn fit_beta(table: &Table, sectors: usize, band: (f64, f64), a: Option<f64>, dark: f32) -> Vec<f32> {
+    let k = table.k;
+    let width = std::f64::consts::TAU / sectors as f64;
+    // per sector and light: Σ x xᵀ (6 values) and Σ I x (3 values), x = m(n_z)·n
+    let mut acc = vec![([0.0f64; 6], [0.0f64; 3], 0usize); sectors * k];
+    let e = &table.entries;
+    for (i, n) in e.normals.iter().enumerate() {
+        let n = [n[0] as f64, n[1] as f64, n[2] as f64];
+        let theta = n[2].clamp(-1.0, 1.0).acos();
+        if theta < band.0 || theta > band.1 {
+            continue;
+        }
+        let phi = n[1].atan2(n[0]);
+        let mf = masking(a, n[2]);
+        let x = n.map(|v| v * mf);
+        let outer = [
+            x[0] * x[0],
+            x[0] * x[1],
+            x[0] * x[2],
+            x[1] * x[1],
+            x[1] * x[2],
+            x[2] * x[2],
+        ];
+        let centre = (phi / width).round() as i64;
+        for s in centre - 1..=centre + 1 {
+            let d = phi - s as f64 * width;
+            let d = (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+            if d.abs() > width {
+                continue;
+            }
+            let s = s.rem_euclid(sectors as i64) as usize;
+            let tuple = &e.tuples[i * k..(i + 1) * k];
+            for (light, &v) in tuple.iter().enumerate() {
+                if v <= dark {
+                    continue;
+                }
+                let (m, b, count) = &mut acc[s * k + light];
+                m.iter_mut().zip(outer).for_each(|(a, o)| *a += o);
+                (0..3).for_each(|j| b[j] += v as f64 * x[j]);
+                *count += 1;
+            }
+        }
+    }
+    let kp = padded(k);
+    let mut beta = vec![0.0f32; sectors * 3 * kp];
+    for (i, (m, b, count)) in acc.iter().enumerate() {
+        if *count < MIN_SAMPLES {
+            continue;
+        }
+        let (s, light) = (i / k, i % k);
+        if let Some(x) = solve3(m, b) {
+            (0..3).for_each(|j| beta[(s * 3 + j) * kp + light] = x[j] as f32);
+        }
+    }
+    beta
+}
+
 /// Solve the symmetric 3×3 system given by its upper triangle (xx, xy, xz, yy, yz, zz).
 fn solve3(m: &[f64; 6], b: &[f64; 3]) -> Option<[f64; 3]> {
     let a = [[m[0], m[1], m[2]], [m[1], m[3], m[4]], [m[2], m[4], m[5]]];
@@ -599,5 +693,89 @@ mod tests {
         // projected out the scale (the 8 iterations stopped short along the θ–scale valley)
         assert!(worst[0] < 0.02, "worst error {}° (scale 1)", worst[0]);
         assert!(worst[1] < 0.02, "worst error {}° (scale fitted)", worst[1]);
+    }
+}
+
+/// Smith's masking of the view over n_z, G₁(v)/(n·v) up to a constant:
+/// m(u) = 1/(u + √(a² + (1 − a²)u²)); 1 without a width.
+fn masking(a: Option<f64>, u: f64) -> f64 {
+    match a {
+        None => 1.0,
+        Some(a) => {
+            let u = u.max(0.0);
+            1.0 / (u + (a * a + (1.0 - a * a) * u * u).sqrt())
+        }
+    }
+}
+
+/// d ln m / du.
+fn masking_dlog(a: Option<f64>, u: f64) -> f64 {
+    match a {
+        None => 0.0,
+        Some(a) => {
+            let u = u.max(0.0);
+            let s = (a * a + (1.0 - a * a) * u * u).sqrt();
+            -(1.0 + (1.0 - a * a) * u / s) / (u + s)
+        }
+    }
+}
+
+#[cfg(test)]
+mod metal {
+    use super::*;
+    use crate::lut::table::BuildOptions;
+    use crate::synth::{self, Material, SceneOptions};
+
+    /// Worst angular error (degrees) of rim fits on exact tuples of `material` at polar
+    /// angles `degrees` and five azimuths, table of a sphere of radius 100 (16 lights,
+    /// 16-bit); and the masking width chosen.
+    fn worst(material: Material, degrees: &[f64]) -> (f64, Option<f64>) {
+        let opts = SceneOptions {
+            material,
+            lights: synth::default_lights(16),
+            camera: synth::Camera::quantized(16),
+            ..SceneOptions::default()
+        };
+        let sphere = synth::render_calibration_sphere(&opts, 100.0).unwrap();
+        let circle = crate::sphere::Circle {
+            cx: 102.0,
+            cy: 102.0,
+            radius: 100.0,
+        };
+        let table = Table::build(&sphere.stack, &circle, &BuildOptions::default()).unwrap();
+        let rim = Rim::fit(&table).unwrap();
+        let mut b = RimBuf::new(16);
+        let mut worst = 0.0f64;
+        for phi in [0.3f64, 1.5, 2.8, 4.0, 5.5] {
+            for &deg in degrees {
+                let n = normal(deg.to_radians(), phi).map(|v| v as f32);
+                let t: Vec<f32> = (0..16)
+                    .map(|i| {
+                        let l = opts.lights.directions[i];
+                        synth::shade(&opts.material, n, l, 1.0) * opts.exposure
+                    })
+                    .collect();
+                let e = rim.theta_clean.sin() as f32;
+                let n0 = [e * phi.cos() as f32, e * phi.sin() as f32, 0.0];
+                let (th, ph, _, _) = rim.solve(&t, &[1.0; 16], n0, false, &mut b);
+                let m = normal(th, ph);
+                let cos = m.iter().zip(n).map(|(a, b)| a * b as f64).sum::<f64>();
+                worst = worst.max(cos.clamp(-1.0, 1.0).acos().to_degrees());
+            }
+        }
+        (worst, rim.mask_a)
+    }
+
+    #[test]
+    fn rim_model_follows_a_rough_metals_rise_and_keeps_lambert_exact() {
+        // GGX metal α 0.2: the masking factor is chosen (the model before left most
+        // lights out of the fit as dark and matched a grazing metal normal 20° off)
+        let (metal, a) = worst(Material::metal(), &[80.0, 84.0, 87.0]);
+        let (lambert, none) = worst(Material::lambertian(0.8), &[80.0, 84.0, 87.0, 89.0]);
+        println!("rim fits at 80–87°: metal worst {metal:.3}° (a {a:?}), Lambertian {lambert:.4}°");
+        assert!(a.is_some() && none.is_none(), "{a:?} {none:?}");
+        // measured: metal 2.73°, Lambertian 0.0124°
+        assert!(metal < 3.0, "metal {metal}°");
+        assert!(lambert < 0.02, "Lambertian {lambert}°");
     }
 }

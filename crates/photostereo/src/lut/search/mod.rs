@@ -30,8 +30,6 @@ const SAME_BASIN: f64 = 1.5;
 const MAX_EXTRAPOLATION: f64 = 2.0;
 /// Relative residual always accepted by the coherence tests.
 const WARM_FLOOR: f32 = 0.003;
-/// A fit within this many grid pixels of the table's edge is refitted on the rim model.
-const RIM_TRIGGER: f64 = 1.0;
 
 /// The previous pixel's solution, for the coherence shortcut.
 #[derive(Clone, Copy, Debug)]
@@ -347,20 +345,18 @@ impl<'a> Solver<'a> {
         fit
     }
 
-    /// A fit at the table's edge refitted on the rim model (see `fit/rim.rs`), with the same
-    /// lights; kept when its residual is lower.
+    /// A fit near the table's edge (within `Rim::tried_below`) refitted on the rim model
+    /// (see `fit/rim.rs`), with the same lights; kept when its residual is lower.
     fn rim_fit(&self, fit: Fit, wk: &mut Work) -> Fit {
         let Some(rim) = &self.rim else {
             return fit;
         };
         let t0 = &self.model.tables[0];
-        let (cgx, cgy) = t0.to_grid(t0.circle.cx, t0.circle.cy);
-        let d = ((fit.gx - cgx).powi(2) + (fit.gy - cgy).powi(2)).sqrt();
-        if d < t0.search_radius() - RIM_TRIGGER {
+        let n0 = t0.grid_normal(fit.gx, fit.gy);
+        if f64::from(n0[2]) > rim.tried_below() {
             return fit;
         }
         let k = self.model.k;
-        let n0 = t0.grid_normal(fit.gx, fit.gy);
         let (t, w) = (&wk.t[..k], &wk.w[..k]);
         let (theta, phi, c, cost) = rim.solve(t, w, n0, self.opts.normalize, &mut wk.rim);
         if cost < fit.cost {
