@@ -37,7 +37,8 @@ fn bands(est: &NormalMap, truth: &NormalMap, mask: &photostereo::Mask) -> (f64, 
         let tilt = (b[2] as f64).clamp(-1.0, 1.0).acos().to_degrees();
         if std::env::var("PS_HIST").is_ok() && tilt > 85.0 && i % 7 == 0 {
             let et = (a[2] as f64).clamp(-1.0, 1.0).acos().to_degrees();
-            let dphi = ((a[1] as f64).atan2(a[0] as f64) - (b[1] as f64).atan2(b[0] as f64)).to_degrees();
+            let dphi =
+                ((a[1] as f64).atan2(a[0] as f64) - (b[1] as f64).atan2(b[0] as f64)).to_degrees();
             println!("  true {tilt:.1} est {et:.1} dphi {dphi:.1} err {e:.1}");
         }
         let k = (1..6).position(|j| tilt < EDGES[j]).unwrap_or(4);
@@ -75,7 +76,11 @@ fn case(name: &str, radius: f64) -> anyhow::Result<()> {
     let input = normals::Input::Tables(&tables, &lo);
     for spatial in [true, false] {
         let o = normals::Options {
-            spatial: if spatial { Some(Default::default()) } else { None },
+            spatial: if spatial {
+                Some(Default::default())
+            } else {
+                None
+            },
         };
         let out = normals::solve(&target.stack, &target.mask, &input, &o, &NoProgress)?;
         let (m, b) = bands(&out.normals, &target.normals, &target.mask);

@@ -46,7 +46,10 @@ const RING: f64 = 12.0 * std::f64::consts::PI / 180.0;
 /// model ([`Rim::tried_below`]).
 const TRIED: f64 = 2.0 * RING;
 /// Candidate widths (radians) of the ring of entries the model is fitted to.
-const RINGS: &[f64] = &[0.0698, 0.1047, 0.1396, 0.2094];
+const RINGS: &[f64] = &[0.2094, 0.1396, 0.1047, 0.0698];
+/// A narrower ring is chosen only when its held-out error is below this fraction of the
+/// wider one's.
+const NARROWER: f64 = 0.5;
 /// Candidate masking widths a (0: no masking factor).
 const WIDTHS: &[f64] = &[0.0, 0.1, 0.15, 0.2, 0.3, 0.5];
 /// Polar-angle width (radians) of the table's outermost band held out to choose them.
@@ -165,16 +168,23 @@ impl Rim {
         };
         let dark = DARK * table.peak();
         let mut best = (f64::INFINITY, RINGS[0], None);
+        // widest ring first: a narrower one must predict clearly better (it follows the
+        // reflectance's curvature, but its slope is noisier)
         for &ring in RINGS {
+            let needed = if ring < best.1 { NARROWER } else { 1.0 };
+            let mut this = (f64::INFINITY, ring, None);
             for &a in WIDTHS {
                 let a = (a > 0.0).then_some(a);
                 let hi = theta_clean - HOLD;
                 rim.mask_a = a;
                 rim.beta = fit_beta(table, sectors, (hi - ring, hi), a, dark);
                 let err = rim.held_out_error(table, hi);
-                if err < best.0 {
-                    best = (err, ring, a);
+                if err < this.0 {
+                    this = (err, ring, a);
                 }
+            }
+            if this.0 < needed * best.0 {
+                best = this;
             }
         }
         let (_, ring, a) = best;
@@ -229,7 +239,11 @@ impl Rim {
         let (sp, cp) = phi.sin_cos();
         b.trig = [st, ct, sp, cp];
         self.interpolate(phi, b);
-        Self::at([(st * cp) as f32, (st * sp) as f32, ct as f32], masking(self.mask_a, ct) as f32, b);
+        Self::at(
+            [(st * cp) as f32, (st * sp) as f32, ct as f32],
+            masking(self.mask_a, ct) as f32,
+            b,
+        );
     }
 
     /// The derivatives of the tuple with respect to θ and φ at the point of the last
@@ -543,7 +557,13 @@ fn scan_thetas(lo: f64) -> Vec<(f64, f64, f64)> {
 
 /// β of every sector and light (`Rim::beta`'s layout), fitted by least squares to the
 /// entries with polar angle in `band` lit above `dark`, with the masking width `a`.
-fn fit_beta(table: &Table, sectors: usize, band: (f64, f64), a: Option<f64>, dark: f32) -> Vec<f32> {
+fn fit_beta(
+    table: &Table,
+    sectors: usize,
+    band: (f64, f64),
+    a: Option<f64>,
+    dark: f32,
+) -> Vec<f32> {
     let k = table.k;
     let width = std::f64::consts::TAU / sectors as f64;
     // per sector and light: Σ x xᵀ (6 values) and Σ I x (3 values), x = m(n_z)·n
@@ -569,8 +589,8 @@ fn fit_beta(table: &Table, sectors: usize, band: (f64, f64), a: Option<f64>, dar
         let centre = (phi / width).round() as i64;
         for s in centre - 1..=centre + 1 {
             let d = phi - s as f64 * width;
-            let d = (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-                - std::f64::consts::PI;
+            let d =
+                (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
             if d.abs() > width {
                 continue;
             }
