@@ -32,22 +32,14 @@ fn bands(est: &NormalMap, truth: &NormalMap, mask: &photostereo::Mask) -> (f64, 
             continue;
         }
         let (a, b) = (est.data[i], truth.data[i]);
-        let c = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) as f64;
-        let e = c.clamp(-1.0, 1.0).acos().to_degrees();
+        let e = photostereo::eval::angle_deg(&a, &b);
         let tilt = (b[2] as f64).clamp(-1.0, 1.0).acos().to_degrees();
-        if std::env::var("PS_HIST").is_ok() && tilt > 85.0 && i % 7 == 0 {
-            let et = (a[2] as f64).clamp(-1.0, 1.0).acos().to_degrees();
-            let dphi =
-                ((a[1] as f64).atan2(a[0] as f64) - (b[1] as f64).atan2(b[0] as f64)).to_degrees();
-            println!("  true {tilt:.1} est {et:.1} dphi {dphi:.1} err {e:.1}");
-        }
         let k = (1..6).position(|j| tilt < EDGES[j]).unwrap_or(4);
         s[k] += e;
         n[k] += 1;
         all += e;
         count += 1;
     }
-    println!("counts {n:?}");
     (
         all / count as f64,
         std::array::from_fn(|k| s[k] / n[k].max(1) as f64),

@@ -21,12 +21,13 @@
 //! interpolated linearly in φ between sector centres (sectors of about 8 px of arc,
 //! each fitted on twice its width).
 //!
-//! The ring's width w (4, 6, 8 or 12°) and the masking width a (none, 0.1 … 0.5) are
+//! The ring's width w (12, 8, 6 or 4°) and the masking width a (none, 0.1 … 0.5) are
 //! chosen per table: each pair is fitted on [θ_c − 3° − w, θ_c − 3°] and scored by how
-//! well it predicts the table's outermost 3° (all lights, squared error); the best pair
-//! is refitted on [θ_c − w, θ_c]. On `synth` renders (16 lights, 16-bit) the choice is
-//! w = 4° with no masking for a Lambertian and a plastic, w = 4°, a = 0.1 for the GGX
-//! metal (α 0.2) at R = 100; a narrow ring because the model is local.
+//! well it predicts the table's outermost 3° (all lights, squared error); the widest
+//! ring is taken unless a narrower one halves that error, and the pair chosen is refitted
+//! on [θ_c − w, θ_c]. The GGX metal of `synth` (α 0.2, R = 100) gets w = 4°, a = 0.1: a
+//! narrow ring, because the model is local; the Mitsuba Lambertian sphere at R = 50
+//! (area-averaged pixels) keeps 12° (4° would take its lookup from 0.072° to 0.084°).
 //!
 //! A target pixel whose table fit ends beyond θ_c − 24° ([`Rim::tried_below`]) is
 //! refitted on this model over (θ, φ), θ ∈ [θ_c − 12°, 90°]: a scan of 13 values of θ at
