@@ -79,16 +79,16 @@ fn case(name: &str, material: Material, radius: f64) -> (f64, [f64; 5]) {
 #[test]
 fn rough_metal_at_grazing_angles_sphere_r100() {
     let (metal, b) = case("metal", Material::metal(), 100.0);
-    // measured 2026-12-03: 0.0834° (80–85° 0.594°, 85–90° 2.48°); before the rim model's
+    // measured 2026-12-03: 0.0841° (80–85° 0.594°, 85–90° 2.48°); before the rim model's
     // masking factor, its choice of ring and the refit from 24° inside the edge: 0.289°
     // (80–85° 5.5°, 85–90° 20.4°). Issue 24's target on the hidden render: < 0.15°
     assert!(metal < 0.095, "metal r 100: {metal}°");
     assert!(b[3] < 0.7 && b[4] < 2.9, "metal r 100 bands {b:?}");
     let (lambert, _) = case("lambertian", Material::lambertian(0.8), 100.0);
     let (plastic, _) = case("plastic", Material::shiny_plastic(), 100.0);
-    // measured: 0.0138° / 0.0162° (before: 0.0145° / 0.0170°)
-    assert!(lambert < 0.0150, "Lambertian r 100: {lambert}°");
-    assert!(plastic < 0.0175, "plastic r 100: {plastic}°");
+    // measured: 0.0168° / 0.0194° (before: 0.0177° / 0.0201°)
+    assert!(lambert < 0.0180, "Lambertian r 100: {lambert}°");
+    assert!(plastic < 0.0205, "plastic r 100: {plastic}°");
 }
 
 #[test]
@@ -96,9 +96,9 @@ fn small_sphere_r50() {
     let (metal, _) = case("metal", Material::metal(), 50.0);
     let (lambert, _) = case("lambertian", Material::lambertian(0.8), 50.0);
     let (plastic, _) = case("plastic", Material::shiny_plastic(), 50.0);
-    // measured 2026-12-03: metal 0.402° (before 0.547°; issue 24's target < 0.30°: missed),
-    // Lambertian 0.0279°, plastic 0.0384° (before 0.0301° / 0.0407°)
+    // measured 2026-12-03: metal 0.402° (before 0.547°; issue 24's target < 0.30°: missed,
+    // 85–90° still 23°), Lambertian 0.0298°, plastic 0.0395° (before 0.0320° / 0.0420°)
     assert!(metal < 0.44, "metal r 50: {metal}°");
-    assert!(lambert < 0.031, "Lambertian r 50: {lambert}°");
-    assert!(plastic < 0.041, "plastic r 50: {plastic}°");
+    assert!(lambert < 0.032, "Lambertian r 50: {lambert}°");
+    assert!(plastic < 0.042, "plastic r 50: {plastic}°");
 }

@@ -6,7 +6,7 @@
 //! * `fused.rs`: the same fit for one table in one fused pass over the K lights per
 //!   step, vectorised (`fused/lanes.rs`, AVX or SSE2 chosen at run time);
 //! * `rim.rs`: a smooth model of each light's reflectance past the table's edge, up to
-//!   90°, and the fit on it;
+//!   90°, and the fit on it (`ring.rs`: the least-squares fit of its coefficients);
 //! * `split.rs`: a table split into its Lambertian part and the rest, and a table
 //!   extended to 90° with its rim model.
 //!
@@ -15,4 +15,5 @@
 pub(crate) mod fused;
 pub(crate) mod generic;
 pub(crate) mod rim;
+pub(crate) mod ring;
 pub(crate) mod split;
