@@ -4,11 +4,22 @@
 //! needs its left or right neighbour's new value), so its speed is set by latency, not
 //! by memory: the kernels write a cell as x_i = t_i + (w_i / d_i) x_{i∓1}, t_i holding
 //! every term off the chain (one multiply and one add on it), and sweep two rows at
-//! once, the second one column behind the first (it needs the first row's new value in
-//! its own column), so that two independent chains overlap. The order of the updates
+//! once, the second [`LAG`] columns behind the first (it needs the first row's new value
+//! in its own column), so that two independent chains overlap. The order of the updates
 //! is exactly Gauss–Seidel's; only the rounding differs from the textbook formula.
+//!
+//! Why [`LAG`] columns and not one: the compiler packs the two rows' cells into one
+//! vector register, and the second row's cell then waits for the first row's value of
+//! the step before (stored, loaded back, four operations), a chain twice as long as
+//! each row's own. Three columns apart, that value was set three steps before and the
+//! chain is each row's own again (1024² disk, whole `integrate --method lsq` process:
+//! see docs/benchmarks.md). The arithmetic and its order per cell are the same for any
+//! lag: the results are bit for bit those of one column.
 
 use super::level::Level;
+
+/// Columns by which the second row of a pair trails the first (module documentation).
+const LAG: usize = 3;
 
 /// Σ a_i b_i with four partial sums (a chain of additions per partial sum, not one).
 #[inline(always)]
@@ -45,7 +56,7 @@ impl Level {
     }
 
     /// Forward sweep of rows r and r + 1 from zero (`above`: row r − 1 or zeros), the
-    /// second row one column behind the first.
+    /// second row [`LAG`] columns behind the first.
     #[inline(always)]
     pub(super) fn fwd_pair(
         &self,
@@ -68,22 +79,35 @@ impl Level {
         );
         let i0 = &self.inv_diag[r * s..(r + 1) * s];
         let i1 = &self.inv_diag[(r + 1) * s..(r + 2) * s];
-        let mut l0 = (b0[1] + su0[1] as f64 * above[1]) * i0[1] as f64;
-        cur0[1] = l0;
-        let mut l1 = 0.0;
-        for c in 2..=w {
+        // Cell c of row r from its left neighbour's new value.
+        let cell0 = |c: usize, left: f64| {
             let d0 = i0[c] as f64;
-            let v0 = (b0[c] + su0[c] as f64 * above[c]) * d0 + e0[c - 1] as f64 * d0 * l0;
-            let k = c - 1;
+            (b0[c] + su0[c] as f64 * above[c]) * d0 + e0[c - 1] as f64 * d0 * left
+        };
+        // Cell k of row r + 1 from the new values above it and to its left.
+        let cell1 = |k: usize, up: f64, left: f64| {
             let d1 = i1[k] as f64;
-            let v1 = (b1[k] + su1[k] as f64 * cur0[k]) * d1 + e1[k - 1] as f64 * d1 * l1;
+            (b1[k] + su1[k] as f64 * up) * d1 + e1[k - 1] as f64 * d1 * left
+        };
+        let lag = LAG.min(w);
+        let (mut l0, mut l1) = (0.0, 0.0);
+        for c in 1..=lag {
+            l0 = cell0(c, l0);
+            cur0[c] = l0;
+        }
+        for c in lag + 1..=w {
+            let v0 = cell0(c, l0);
+            let k = c - lag;
+            let v1 = cell1(k, cur0[k], l1);
             cur0[c] = v0;
             cur1[k] = v1;
             l0 = v0;
             l1 = v1;
         }
-        let d1 = i1[w] as f64;
-        cur1[w] = (b1[w] + su1[w] as f64 * cur0[w]) * d1 + e1[w - 1] as f64 * d1 * l1;
+        for k in w + 1 - lag..=w {
+            l1 = cell1(k, cur0[k], l1);
+            cur1[k] = l1;
+        }
     }
 
     /// Backward sweep of row r (right to left; `above`, `below`: rows r ∓ 1 as the
@@ -120,8 +144,8 @@ impl Level {
         dot
     }
 
-    /// Backward sweep of rows r (first) and r − 1 (one column behind): `above` is row
-    /// r − 2, `below` row r + 1. Returns Σ b_i x_i over both rows.
+    /// Backward sweep of rows r (first) and r − 1 ([`LAG`] columns behind): `above` is
+    /// row r − 2, `below` row r + 1. Returns Σ b_i x_i over both rows.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(super) fn bwd_pair(
@@ -147,22 +171,29 @@ impl Level {
         );
         let it = &self.inv_diag[(r - 1) * s..r * s];
         let ib = &self.inv_diag[r * s..(r + 1) * s];
-        let row_b = |c: usize, bot: &[f64], top: &[f64]| {
-            bb[c] + eb[c - 1] as f64 * bot[c - 1] + sb[c] as f64 * below[c] + sm[c] as f64 * top[c]
-        };
-        let row_t = |c: usize, top: &[f64], bot: &[f64]| {
-            bt[c] + et[c - 1] as f64 * top[c - 1] + sm[c] as f64 * bot[c] + st[c] as f64 * above[c]
-        };
-        let db = ib[w] as f64;
-        let mut rb = row_b(w, bot, top) * db;
-        bot[w] = rb;
-        let (mut rt, mut dot_b, mut dot_t) = (0.0, bb[w] * rb, 0.0);
-        for c in (1..w).rev() {
+        // Cell c of row r: `left` and `up` are the old values, `right` the new one.
+        let cell_b = |c: usize, left: f64, up: f64, right: f64| {
             let db = ib[c] as f64;
-            let vb = row_b(c, bot, top) * db + eb[c] as f64 * db * rb;
-            let k = c + 1;
+            let t = bb[c] + eb[c - 1] as f64 * left + sb[c] as f64 * below[c] + sm[c] as f64 * up;
+            t * db + eb[c] as f64 * db * right
+        };
+        // Cell k of row r − 1: `left` old, `down` and `right` new.
+        let cell_t = |k: usize, left: f64, down: f64, right: f64| {
             let dt = it[k] as f64;
-            let vt = row_t(k, top, bot) * dt + et[k] as f64 * dt * rt;
+            let t = bt[k] + et[k - 1] as f64 * left + sm[k] as f64 * down + st[k] as f64 * above[k];
+            t * dt + et[k] as f64 * dt * right
+        };
+        let lag = LAG.min(w);
+        let (mut rb, mut rt, mut dot_b, mut dot_t) = (0.0, 0.0, 0.0, 0.0);
+        for c in (w + 1 - lag..=w).rev() {
+            rb = cell_b(c, bot[c - 1], top[c], rb);
+            bot[c] = rb;
+            dot_b += bb[c] * rb;
+        }
+        for c in (1..=w - lag).rev() {
+            let vb = cell_b(c, bot[c - 1], top[c], rb);
+            let k = c + lag;
+            let vt = cell_t(k, top[k - 1], bot[k], rt);
             bot[c] = vb;
             top[k] = vt;
             rb = vb;
@@ -170,10 +201,11 @@ impl Level {
             dot_b += bb[c] * vb;
             dot_t += bt[k] * vt;
         }
-        let dt = it[1] as f64;
-        let vt = row_t(1, top, bot) * dt + et[1] as f64 * dt * rt;
-        top[1] = vt;
-        dot_t += bt[1] * vt;
+        for k in (1..=lag).rev() {
+            rt = cell_t(k, top[k - 1], bot[k], rt);
+            top[k] = rt;
+            dot_t += bt[k] * rt;
+        }
         dot_b + dot_t
     }
 }
