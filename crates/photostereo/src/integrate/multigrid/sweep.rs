@@ -91,9 +91,9 @@ impl Level {
         };
         let lag = LAG.min(w);
         let (mut l0, mut l1) = (0.0, 0.0);
-        for c in 1..=lag {
+        for (c, out) in cur0.iter_mut().enumerate().take(lag + 1).skip(1) {
             l0 = cell0(c, l0);
-            cur0[c] = l0;
+            *out = l0;
         }
         for c in lag + 1..=w {
             let v0 = cell0(c, l0);
