@@ -22,7 +22,10 @@
 //! E(u) = Σ_i (u_i − û_i)ᵀ A_i (u_i − û_i) + λ Σ_t ω_t ‖u_a − 2u_b + u_c‖²,
 //!
 //! t = (a, b, c) running over consecutive mask pixels along rows and columns, λ = 1/τ²
-//! with τ = [`Options::smoothness`]. The prior penalises the *second* differences of
+//! with τ between [`Options::smoothest`] and [`Options::smoothness`], chosen block by
+//! block from the matches' own second differences less what their noise explains
+//! ([`roughness`]: smooth inside an object, free where it bends at its contour). The
+//! prior penalises the *second* differences of
 //! (n_x, n_y): every field linear in the image position costs nothing — in particular a
 //! sphere, whose (n_x, n_y) = (x, y)/R — so it adds no bias on smoothly curved surfaces
 //! and extrapolates the curvature into dark regions (the rim of a shiny object, where
@@ -71,6 +74,7 @@ mod contour;
 pub mod info;
 pub mod levels;
 pub mod noise;
+pub mod roughness;
 mod solve;
 
 pub use info::{angular_sigma_deg, Evidence, MAX_SIGMA_DEG};
@@ -90,6 +94,11 @@ pub struct Options {
     /// smooth surface (unit-normal components per pixel²); the prior weight is λ = 1/τ².
     /// Smaller = smoother. Default 0.01.
     pub smoothness: f32,
+    /// τ_min: the prior's scale where the matches show a smooth surface (module
+    /// [`roughness`]): each block's τ is estimated from the matches' own second
+    /// differences and kept in [τ_min, τ]. Equal to `smoothness`: one τ everywhere.
+    /// Default 0.0025.
+    pub smoothest: f32,
     /// Jump of (n_x, n_y) between neighbouring pixels (unit-normal components) that is
     /// evidence of a discontinuity when both pixels know their normal well (see the
     /// module docs). Default 0.15 (about 9°).
@@ -123,6 +132,10 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             smoothness: 0.01,
+            smoothest: std::env::var("PHOTOSTEREO_TAU")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(0.0025),
             jump: 0.15,
             iterations: 40,
             contour_sigma: Some(0.03),
@@ -375,9 +388,12 @@ fn quadratic(
     start: Option<Vec<[f32; 2]>>,
 ) -> (Vec<[f32; 2]>, Level, usize, usize) {
     let (w, h) = (ev.width, ev.height);
-    let lambda = 1.0 / (opts.smoothness * opts.smoothness);
     let jump2 = opts.jump * opts.jump;
     let known2 = jump2 / 9.0;
+    let tau_min = opts.smoothest.min(opts.smoothness);
+    let lambda = 1.0 / (tau_min * tau_min);
+    let scale = (tau_min < opts.smoothness)
+        .then(|| roughness::PriorScale::estimate(ev, mask, (tau_min, opts.smoothness), known2));
     let m = &mask.data;
     let n = m.len();
     let jumps = |i: usize, j: usize| {
@@ -407,7 +423,8 @@ fn quadratic(
         None => Vec::new(),
     };
     let fields = (&ev.a[..], &ev.u[..], &ev.g[..]);
-    let fine = Level::finest((w, h), m, fields, &contour, lambda, pair_ok);
+    let prior = (lambda, |i: usize| scale.as_ref().map_or(1.0, |s| s.at(i)));
+    let fine = Level::finest((w, h), m, fields, &contour, prior, pair_ok);
     drop(contour);
     crate::io::memtrace::mark("spatial: finest level built");
     if let Some(mut x) = start {
@@ -518,13 +535,18 @@ fn check(ev: &Evidence, mask: &Mask, opts: &Options) -> Result<()> {
     mask.check_size(ev.width, ev.height, "spatial stage mask")?;
     let ok = |v: f32| v.is_finite() && v > 0.0;
     let contour_ok = opts.contour_sigma.is_none_or(ok);
-    if !ok(opts.smoothness) || !ok(opts.jump) || !contour_ok || !ok(opts.trust) {
+    if !ok(opts.smoothness)
+        || !ok(opts.smoothest)
+        || !ok(opts.jump)
+        || !contour_ok
+        || !ok(opts.trust)
+    {
         return Err(Error::invalid(
             format!(
-                "spatial smoothness {} / jump {} / contour sigma {:?} / trust {}",
-                opts.smoothness, opts.jump, opts.contour_sigma, opts.trust
+                "spatial smoothness {} (smoothest {}) / jump {} / contour sigma {:?} / trust {}",
+                opts.smoothness, opts.smoothest, opts.jump, opts.contour_sigma, opts.trust
             ),
-            "use positive finite values (defaults 0.01, 0.15, 0.01 and 25)",
+            "use positive finite values (defaults 0.01 (0.0025), 0.15, 0.03 and 25)",
         ));
     }
     Ok(())

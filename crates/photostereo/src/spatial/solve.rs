@@ -112,13 +112,15 @@ impl Level {
     /// The finest level from the evidence: information `a`, matches `u` and gradient
     /// `g` (empty: zero) over the grid, `extra` (grid index, ΔA, Δb) added to a pixel's
     /// cost (the contour prior); `pair_ok(i, j, step)` says whether neighbours i and
-    /// j = i + step may be smoothed together (no evidence of a discontinuity).
+    /// j = i + step may be smoothed together (no evidence of a discontinuity); each
+    /// pixel's cost (its own and `extra`) multiplied by `scale(i)` (the local prior
+    /// scale, [`super::roughness`]).
     pub fn finest(
         (w, h): (usize, usize),
         mask: &[bool],
         (a, u, g): Fields,
         extra: &[(usize, [f32; 3], [f32; 2])],
-        lambda: f32,
+        (lambda, scale): (f32, impl Fn(usize) -> f32 + Sync),
         pair_ok: impl Fn(usize, usize, usize) -> bool + Sync,
     ) -> Level {
         let (idx, starts) = index(mask, w, h);
@@ -140,13 +142,15 @@ impl Level {
             if let Some(g) = g.get(i) {
                 b = [b[0] + g[0], b[1] + g[1]];
             }
-            (a, b)
+            let s = scale(i);
+            ([s * a[0], s * a[1], s * a[2]], [s * b[0], s * b[1]])
         });
         for &(i, da, db) in extra {
             if let Some(j) = l.at(i) {
+                let s = scale(i);
                 let (a, b) = &mut ab[j];
-                *a = [a[0] + da[0], a[1] + da[1], a[2] + da[2]];
-                *b = [b[0] + db[0], b[1] + db[1]];
+                *a = [a[0] + s * da[0], a[1] + s * da[1], a[2] + s * da[2]];
+                *b = [b[0] + s * db[0], b[1] + s * db[1]];
             }
         }
         // the ridge pulls towards the pixel's own solution A⁻¹b
