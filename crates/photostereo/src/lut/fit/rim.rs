@@ -35,7 +35,9 @@
 //! 1e-5 rad ends it, untaken) from the best, with the same lights and scale as the
 //! table fit; the rim fit replaces the table fit only when its residual is lower. (Only
 //! fits that end within 1 px of the table's edge were refitted before: a rough metal's
-//! grazing normals, dim, matched dim entries near 60° instead.)
+//! grazing normals, dim, matched dim entries near 60° instead.) Inside the edge, a fit
+//! whose relative residual is already within the lookup's coherence floor (0.3%) is
+//! not refitted: that keeps the lookup's speed on plastics.
 
 use super::generic::Fit;
 use super::ring::{fit_beta, masking, masking_dlog};
