@@ -132,10 +132,7 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             smoothness: 0.01,
-            smoothest: std::env::var("PHOTOSTEREO_TAU")
-                .ok()
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(0.0025),
+            smoothest: 0.0025,
             jump: 0.15,
             iterations: 40,
             contour_sigma: Some(0.03),

@@ -348,14 +348,18 @@ impl<'a> Solver<'a> {
         fit
     }
 
-    /// A fit near the table's edge (within `Rim::tried_below`) refitted on the rim model
-    /// (see `fit/rim.rs`), with the same lights; kept when its residual is lower.
+    /// A fit beyond `Rim::tried_below` refitted on the rim model (see `fit/rim.rs`), with
+    /// the same lights, when it lies at the table's edge or is worse than [`WARM_FLOOR`];
+    /// kept when its residual is lower.
     fn rim_fit(&self, fit: Fit, wk: &mut Work) -> Fit {
         let Some(rim) = &self.rim else {
             return fit;
         };
         let t0 = &self.model.tables[0];
         let n0 = t0.grid_normal(fit.gx, fit.gy);
+        if f64::from(n0[2]) > rim.tried_below() {
+            return fit;
+        }
         // inside the table's edge, a fit already within the coherence tests' floor is
         // left alone: the refit could not improve it measurably, and a third of a
         // sphere's pixels lie beyond `tried_below` (refitting them all slowed the
@@ -363,8 +367,7 @@ impl<'a> Solver<'a> {
         let (cgx, cgy) = t0.to_grid(t0.circle.cx, t0.circle.cy);
         let d = ((fit.gx - cgx).powi(2) + (fit.gy - cgy).powi(2)).sqrt();
         let at_edge = d >= t0.search_radius() - RIM_TRIGGER;
-        let good = relative_to(wk.norm, fit.cost) <= WARM_FLOOR;
-        if f64::from(n0[2]) > rim.tried_below() || (good && !at_edge) {
+        if !at_edge && relative_to(wk.norm, fit.cost) <= WARM_FLOOR {
             return fit;
         }
         let k = self.model.k;
