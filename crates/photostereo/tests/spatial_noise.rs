@@ -290,6 +290,14 @@ fn bad_options_are_refused() {
         ..spatial::Options::default()
     };
     assert!(spatial::solve(&ev, &mask, &bad).is_err());
+    for smoothest in [0.0, -1.0, f32::NAN] {
+        let bad = spatial::Options {
+            smoothest,
+            ..spatial::Options::default()
+        };
+        let err = spatial::solve(&ev, &mask, &bad).unwrap_err().to_string();
+        assert!(err.contains("smoothest"), "{err}");
+    }
     assert!(spatial::solve(&ev, &Mask::full(5, 4), &spatial::Options::default()).is_err());
     let ok = spatial::solve(&ev, &mask, &spatial::Options::default()).unwrap();
     assert!(ok.normals.data.iter().all(|n| (n[2] - 1.0).abs() < 1e-6));
