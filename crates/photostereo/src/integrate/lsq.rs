@@ -22,6 +22,7 @@
 //! more memory).
 
 use super::multigrid::System;
+use super::pages::{filled, Buf};
 use super::support::Components;
 use super::window::Window;
 use crate::error::{Error, Result};
@@ -204,21 +205,12 @@ impl Assembled {
     }
 }
 
-/// n zeros, written now. The allocator's zeroed memory (`vec![0.0; n]`) is mapped page
-/// by page on first touch, and a page that is read before it is written faults twice
-/// (the shared zero page, then a copy on write): writing it first halves those faults.
-fn written_zeros(n: usize) -> Vec<f64> {
-    let mut v = Vec::with_capacity(n);
-    v.resize(n, 0.0);
-    v
-}
-
 /// The normal equations of the masked problem directly on the padded grid of
 /// [`System`] (stride w + 2; f32 weights, f64 right-hand side) and the pins.
 struct Padded {
-    east: Vec<f32>,
-    south: Vec<f32>,
-    rhs: Vec<f64>,
+    east: Buf<f32>,
+    south: Buf<f32>,
+    rhs: Buf<f64>,
     pins: Vec<(usize, f64)>,
 }
 
@@ -238,9 +230,9 @@ impl Padded {
         let wt = weights.map(|_| pixel_weights(weights, mask));
         let pair = |i: usize, j: usize| wt.as_ref().map_or(1.0, |v| v[i].min(v[j]));
         let prior = weights.is_some();
-        let (mut east, mut south) = (vec![0.0f32; n], vec![0.0f32; n]);
-        // Updated in place (read, then written): zeroed by writing (see `written_zeros`).
-        let mut rhs = written_zeros(n);
+        let (mut east, mut south) = (filled(n, 0.0f32), filled(n, 0.0f32));
+        // Updated in place (read, then written): zeroed by writing (see `pages::filled`).
+        let mut rhs = filled(n, 0.0);
         // Neighbours past the window's right or lower side are outside the mask.
         let (c_end, r_end) = (win.c0 + win.w, win.r0 + win.h);
         for r in win.r0..r_end {
@@ -366,7 +358,7 @@ pub(crate) fn integrate(
     sys.pin(comps, &win);
     progress.advance(1);
     // CG's first access to x is x ← x + α p (a read): zeroed by writing.
-    let mut x = written_zeros(sys.rhs.len());
+    let mut x = filled(sys.rhs.len(), 0.0);
     let Padded {
         east,
         south,

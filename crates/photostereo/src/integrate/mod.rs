@@ -63,6 +63,7 @@ mod fft2;
 mod fourier;
 mod lsq;
 mod multigrid;
+mod pages;
 mod parts;
 pub mod path;
 mod spectrum;

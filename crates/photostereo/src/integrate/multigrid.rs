@@ -61,6 +61,7 @@ mod bands;
 mod level;
 mod sweep;
 
+use super::pages::{filled, Buf};
 use level::{rows, Level};
 
 use faer::linalg::solvers::{Lblt, Llt, Solve};
@@ -246,7 +247,7 @@ impl System {
     pub fn new(w: usize, h: usize, east: &[f64], south: &[f64], mass: &[f64]) -> Self {
         let s = w + 2;
         let n = s * (h + 2);
-        let (mut e, mut so, mut m) = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]);
+        let (mut e, mut so, mut m) = (filled(n, 0.0f32), filled(n, 0.0f32), filled(n, 0.0f32));
         let mut pins = Vec::new();
         let narrow = |dst: &mut [f32], src: &[f64]| {
             dst.iter_mut().zip(src).for_each(|(d, &v)| *d = v as f32);
@@ -278,11 +279,11 @@ impl System {
     pub fn from_padded(
         w: usize,
         h: usize,
-        east: Vec<f32>,
-        south: Vec<f32>,
+        east: Buf<f32>,
+        south: Buf<f32>,
         pins: Vec<(usize, f64)>,
     ) -> Self {
-        let mut m = vec![0.0f32; east.len()];
+        let mut m = filled(east.len(), 0.0f32);
         let pins = pins
             .into_iter()
             .map(|(i, v)| {
@@ -330,10 +331,10 @@ impl System {
         dot
     }
 
-    fn pad(&self, v: &[f64]) -> Vec<f64> {
+    fn pad(&self, v: &[f64]) -> Buf<f64> {
         let fine = self.fine();
         let s = fine.stride();
-        let mut out = vec![0.0; fine.len()];
+        let mut out = filled(fine.len(), 0.0);
         for r in 0..fine.h {
             let dst = (r + 1) * s + 1..(r + 1) * s + 1 + fine.w;
             for ((o, &v), &d) in out[dst.clone()]
@@ -367,7 +368,7 @@ impl System {
     /// guess if `warm`, otherwise all zeros.
     pub fn solve_padded(
         &self,
-        b: Vec<f64>,
+        b: Buf<f64>,
         x: &mut [f64],
         warm: bool,
         tol: f64,
@@ -376,7 +377,7 @@ impl System {
         let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt();
         let mut r = b;
         if warm {
-            let mut ax = vec![0.0; r.len()];
+            let mut ax = filled(r.len(), 0.0);
             self.apply_dot(x, &mut ax);
             r.iter_mut().zip(&ax).for_each(|(ri, a)| *ri -= a);
         }
@@ -408,7 +409,7 @@ impl System {
         let n = x.len();
         let h = &self.hierarchy;
         let mut work = h.workspace();
-        let (mut z, mut p) = (vec![0.0; n], vec![0.0; n]);
+        let (mut z, mut p) = (filled(n, 0.0), filled(n, 0.0));
         let mut rz = h.vcycle(0, r, &mut z, &mut work);
         let mut pap = self.update(None, x, &mut p, &mut z);
         let mut it = 0;

@@ -1,6 +1,8 @@
 //! One level of the hierarchy: the weighted graph Laplacian on a padded grid, and its
 //! coarsening into 2 × 2 blocks (see the parent module's docs).
 
+use super::super::pages::{filled, Buf};
+
 /// Coarse-operator scaling γ (see the module documentation).
 const GAMMA: f32 = 2.0;
 
@@ -25,13 +27,13 @@ pub(crate) struct Level {
     pub(super) w: usize,
     pub(super) h: usize,
     /// Weight of the edge from a cell to its right neighbour (padded layout).
-    pub(super) east: Vec<f32>,
+    pub(super) east: Buf<f32>,
     /// Weight of the edge from a cell to the one below.
-    pub(super) south: Vec<f32>,
+    pub(super) south: Buf<f32>,
     /// Extra diagonal (pins), ≥ 0.
-    pub(super) mass: Vec<f32>,
+    pub(super) mass: Buf<f32>,
     /// 1 / (Σ incident weights + mass); 0 for cells without unknown.
-    pub(super) inv_diag: Vec<f32>,
+    pub(super) inv_diag: Buf<f32>,
     /// Per cell: part of its block's coarse cell (set by [`Level::coarsen`]).
     pub(super) incl: Vec<bool>,
     /// Per padded row: every cell with an unknown is included (set by
@@ -50,9 +52,9 @@ impl Level {
         (self.w + 2) * (self.h + 2)
     }
 
-    pub(super) fn new(w: usize, h: usize, east: Vec<f32>, south: Vec<f32>, mass: Vec<f32>) -> Self {
+    pub(super) fn new(w: usize, h: usize, east: Buf<f32>, south: Buf<f32>, mass: Buf<f32>) -> Self {
         let s = w + 2;
-        let mut inv_diag = vec![0.0f32; s * (h + 2)];
+        let mut inv_diag = filled(s * (h + 2), 0.0f32);
         for r in 1..=h {
             let (_, ec, _) = rows(&east, s, r);
             let (su, sc, _) = rows(&south, s, r);
@@ -215,7 +217,7 @@ impl Level {
         let (wc, hc) = (w.div_ceil(2), h.div_ceil(2));
         let sc = wc + 2;
         let n = sc * (hc + 2);
-        let (mut east, mut south, mut mass) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let (mut east, mut south, mut mass) = (filled(n, 0.0), filled(n, 0.0), filled(n, 0.0));
         for r in 0..h {
             if self.clean[r..r + 3].iter().all(|&c| c) {
                 self.coarsen_clean_row(r, &mut east, &mut south, &mut mass, sc);
