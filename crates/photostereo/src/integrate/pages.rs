@@ -15,7 +15,8 @@
 //! advice is ignored and the vectors are on ordinary pages, as before; the values never
 //! depend on it.
 
-use std::alloc::{alloc, dealloc, handle_alloc_error, Layout};
+use bytemuck::{bytes_of, Pod};
+use std::alloc::{alloc, alloc_zeroed, dealloc, handle_alloc_error, Layout};
 use std::fmt;
 use std::ops::{Deref, DerefMut};
 use std::ptr::NonNull;
@@ -42,10 +43,11 @@ unsafe impl<T: Send> Send for Buf<T> {}
 // SAFETY: see `Send` above.
 unsafe impl<T: Sync> Sync for Buf<T> {}
 
-/// n copies of `v`, written now (the pages are touched by writing, so a page read
-/// before it is written does not fault twice: once for the shared zero page, then for
-/// a copy on write), on huge pages when the vector is big (module documentation).
-pub(crate) fn filled<T: Copy>(n: usize, v: T) -> Buf<T> {
+/// n copies of `v`. A big vector is on huge pages (module documentation) and written
+/// now (the pages are touched by writing, so a page read before it is written does not
+/// fault twice: once for the shared zero page, then for a copy on write); a small one
+/// of zeros comes from the allocator's zeroed memory.
+pub(crate) fn filled<T: Pod>(n: usize, v: T) -> Buf<T> {
     // More than the address space can hold: refused below as `Vec` would.
     let bytes = n.saturating_mul(size_of::<T>()).min(isize::MAX as usize);
     // A big vector starts on a huge-page boundary and ends on one, so that every page
@@ -64,17 +66,32 @@ pub(crate) fn filled<T: Copy>(n: usize, v: T) -> Buf<T> {
             layout,
         };
     }
+    let (big, zero) = (bytes >= MIN_BYTES, bytes_of(&v).iter().all(|&b| b == 0));
+    // A small vector of zeros comes zeroed from the allocator (untouched where the
+    // memory is fresh), as `vec![0.0; n]` does.
     // SAFETY: the layout has a non-zero size (checked just above).
-    let raw = unsafe { alloc(layout) } as *mut T;
+    let raw = unsafe {
+        if zero && !big {
+            alloc_zeroed(layout)
+        } else {
+            alloc(layout)
+        }
+    } as *mut T;
     let Some(ptr) = NonNull::new(raw) else {
         handle_alloc_error(layout)
     };
-    if bytes >= MIN_BYTES {
+    if big {
         advise_huge(raw as usize, size);
     }
-    for i in 0..n {
-        // SAFETY: i < n, inside the allocation of n elements of T, aligned for T.
-        unsafe { raw.add(i).write(v) };
+    if zero && big {
+        // SAFETY: n elements of T fit in the allocation; all-zero bytes are a valid T
+        // (`Pod`), here the very bytes of `v`.
+        unsafe { raw.write_bytes(0, n) };
+    } else if !zero {
+        for i in 0..n {
+            // SAFETY: i < n, inside the allocation of n elements of T, aligned for T.
+            unsafe { raw.add(i).write(v) };
+        }
     }
     Buf {
         ptr,
@@ -117,7 +134,7 @@ impl<T> Drop for Buf<T> {
     }
 }
 
-impl<T: Copy + Default> Clone for Buf<T> {
+impl<T: Pod + Default> Clone for Buf<T> {
     fn clone(&self) -> Self {
         let mut out = filled(self.len, T::default());
         out.copy_from_slice(self);
