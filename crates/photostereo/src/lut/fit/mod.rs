@@ -6,7 +6,8 @@
 //! * `fused.rs`: the same fit for one table in one fused pass over the K lights per
 //!   step, vectorised (`fused/lanes.rs`, AVX or SSE2 chosen at run time);
 //! * `rim.rs`: a smooth model of each light's reflectance past the table's edge, up to
-//!   90°, and the fit on it (`ring.rs`: the least-squares fit of its coefficients);
+//!   90°, and the fit on it (`ring.rs`: the least-squares fit of its coefficients;
+//!   `lobe.rs`: a parametric microfacet lobe per light, its other candidate);
 //! * `split.rs`: a table split into its Lambertian part and the rest, and a table
 //!   extended to 90° with its rim model.
 //!
@@ -14,6 +15,7 @@
 
 pub(crate) mod fused;
 pub(crate) mod generic;
+pub(crate) mod lobe;
 pub(crate) mod rim;
 pub(crate) mod ring;
 pub(crate) mod split;
