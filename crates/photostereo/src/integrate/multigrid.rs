@@ -61,7 +61,7 @@ mod bands;
 mod level;
 mod sweep;
 
-use super::pages::{filled, Buf};
+use super::pages::{filled, sparse, Buf};
 use level::{rows, Level};
 
 use faer::linalg::solvers::{Lblt, Llt, Solve};
@@ -247,7 +247,7 @@ impl System {
     pub fn new(w: usize, h: usize, east: &[f64], south: &[f64], mass: &[f64]) -> Self {
         let s = w + 2;
         let n = s * (h + 2);
-        let (mut e, mut so, mut m) = (filled(n, 0.0f32), filled(n, 0.0f32), filled(n, 0.0f32));
+        let (mut e, mut so, mut m) = (filled(n, 0.0f32), filled(n, 0.0f32), sparse(n));
         let mut pins = Vec::new();
         let narrow = |dst: &mut [f32], src: &[f64]| {
             dst.iter_mut().zip(src).for_each(|(d, &v)| *d = v as f32);
@@ -283,7 +283,7 @@ impl System {
         south: Buf<f32>,
         pins: Vec<(usize, f64)>,
     ) -> Self {
-        let mut m = filled(east.len(), 0.0f32);
+        let mut m = sparse(east.len());
         let pins = pins
             .into_iter()
             .map(|(i, v)| {

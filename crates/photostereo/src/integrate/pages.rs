@@ -25,6 +25,15 @@ use std::ptr::NonNull;
 /// and touched little).
 const MIN_BYTES: usize = 2 << 20;
 
+/// Vectors of more bytes stay on ordinary pages too. Measured (docs/benchmarks.md): on a
+/// 2048² grid (17–34 MB per vector) and a 4096² one the huge pages cost more than they
+/// saved: the kernel clears each 2 MiB page whole on its first touch, past the caches,
+/// where a 4 KiB page is cleared just before the program writes it (system time 0.35 ->
+/// 0.75 s at 2048², 1.4 -> 2.4 s at 4096², user time unchanged), and the 4096² peak
+/// grew by 27 MB (13 MB with only the coarse levels' vectors advised: these now never
+/// are); the gain is on grids of about a million cells.
+const MAX_BYTES: usize = 16 << 20;
+
 /// The size and alignment of a huge page (x86-64 and aarch64 with 4 KiB pages).
 const HUGE: usize = 2 << 20;
 
@@ -48,12 +57,32 @@ unsafe impl<T: Sync> Sync for Buf<T> {}
 /// fault twice: once for the shared zero page, then for a copy on write); a small one
 /// of zeros comes from the allocator's zeroed memory.
 pub(crate) fn filled<T: Pod>(n: usize, v: T) -> Buf<T> {
+    make(n, v, true)
+}
+
+/// n zeros from the allocator's zeroed memory, on ordinary pages whatever the size: for
+/// vectors written in a few places only (the masses), whose untouched pages then take
+/// no memory (a huge page would be resident whole as soon as one value is written).
+pub(crate) fn sparse<T: Pod>(n: usize) -> Buf<T> {
+    make(n, T::zeroed(), false)
+}
+
+/// [`filled`] (`huge`: on huge pages when big) or [`sparse`].
+fn make<T: Pod>(n: usize, v: T, huge: bool) -> Buf<T> {
     // More than the address space can hold: refused below as `Vec` would.
     let bytes = n.saturating_mul(size_of::<T>()).min(isize::MAX as usize);
-    // A big vector starts on a huge-page boundary and ends on one, so that every page
-    // of it can be huge (the tail of the last one, under 2 MiB, is never read).
-    let (size, align) = if bytes >= MIN_BYTES {
-        (bytes.next_multiple_of(HUGE), HUGE)
+    // A big vector starts on a huge-page boundary, and ends on one where that adds at
+    // most an eighth (so that its last page can be huge too: the tail of that page is
+    // never read, but resident).
+    let big = huge && (MIN_BYTES..=MAX_BYTES).contains(&bytes);
+    let (size, align) = if big {
+        let whole = bytes.next_multiple_of(HUGE);
+        let size = if whole - bytes <= bytes / 8 {
+            whole
+        } else {
+            bytes
+        };
+        (size, HUGE)
     } else {
         (bytes, align_of::<T>())
     };
@@ -66,7 +95,7 @@ pub(crate) fn filled<T: Pod>(n: usize, v: T) -> Buf<T> {
             layout,
         };
     }
-    let (big, zero) = (bytes >= MIN_BYTES, bytes_of(&v).iter().all(|&b| b == 0));
+    let zero = bytes_of(&v).iter().all(|&b| b == 0);
     // A small vector of zeros comes zeroed from the allocator (untouched where the
     // memory is fresh), as `vec![0.0; n]` does.
     // SAFETY: the layout has a non-zero size (checked just above).

@@ -1,7 +1,7 @@
 //! One level of the hierarchy: the weighted graph Laplacian on a padded grid, and its
 //! coarsening into 2 × 2 blocks (see the parent module's docs).
 
-use super::super::pages::{filled, Buf};
+use super::super::pages::{sparse, Buf};
 
 /// Coarse-operator scaling γ (see the module documentation).
 const GAMMA: f32 = 2.0;
@@ -54,7 +54,7 @@ impl Level {
 
     pub(super) fn new(w: usize, h: usize, east: Buf<f32>, south: Buf<f32>, mass: Buf<f32>) -> Self {
         let s = w + 2;
-        let mut inv_diag = filled(s * (h + 2), 0.0f32);
+        let mut inv_diag = sparse(s * (h + 2));
         for r in 1..=h {
             let (_, ec, _) = rows(&east, s, r);
             let (su, sc, _) = rows(&south, s, r);
@@ -217,7 +217,8 @@ impl Level {
         let (wc, hc) = (w.div_ceil(2), h.div_ceil(2));
         let sc = wc + 2;
         let n = sc * (hc + 2);
-        let (mut east, mut south, mut mass) = (filled(n, 0.0), filled(n, 0.0), filled(n, 0.0));
+        // Coarse levels on ordinary pages (see `pages::MAX_BYTES`).
+        let (mut east, mut south, mut mass) = (sparse(n), sparse(n), sparse(n));
         for r in 0..h {
             if self.clean[r..r + 3].iter().all(|&c| c) {
                 self.coarsen_clean_row(r, &mut east, &mut south, &mut mass, sc);
