@@ -12,6 +12,7 @@ pub mod fuzz;
 pub mod interreflect_scene;
 pub mod lut_scene;
 pub mod lut_score;
+pub mod resample;
 pub mod shared;
 pub mod sphere_measure;
 pub mod sphere_scene;
