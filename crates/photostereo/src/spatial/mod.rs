@@ -309,23 +309,27 @@ pub fn solve_relinearised(
 /// Own share at or above which [`keep_own_where_rejected`] returns a pixel's match.
 pub const DECIDED_BY_OWN: f32 = 0.999;
 
-/// Every mask pixel of own share ≥ [`DECIDED_BY_OWN`] gets its match back, with the
-/// match's standard error.
-fn restore_decided_by_own(out: &mut Output, (ev, matches): (&Evidence, &NormalMap), mask: &Mask) {
+/// Pixel `i` gets its match back, with the match's standard error (`ev`, the matches'
+/// evidence).
+fn take_match(out: &mut Output, (ev, matches): (&Evidence, &NormalMap), i: usize) {
+    out.normals.data[i] = matches.data[i];
+    out.sigma_deg.data[i] = angular_sigma_deg(ev.u[i], ev.a[i]);
+}
+
+/// Every mask pixel of own share ≥ [`DECIDED_BY_OWN`] whose normal moved gets its match
+/// back; returns whether any did.
+fn restore_decided_by_own(out: &mut Output, evm: (&Evidence, &NormalMap), mask: &Mask) -> bool {
     let mut changed = false;
     for i in 0..mask.data.len() {
         if mask.data[i]
             && out.own_share.data[i] >= DECIDED_BY_OWN
-            && out.normals.data[i] != matches.data[i]
+            && out.normals.data[i] != evm.1.data[i]
         {
-            out.normals.data[i] = matches.data[i];
-            out.sigma_deg.data[i] = angular_sigma_deg(ev.u[i], ev.a[i]);
+            take_match(out, evm, i);
             changed = true;
         }
     }
-    if changed {
-        out.stats.mean_sigma_deg = mean_in(&out.sigma_deg, mask);
-    }
+    changed
 }
 
 /// The rule that a pixel is decided by its neighbours only where its own evidence cannot
@@ -358,26 +362,26 @@ pub fn keep_own_where_rejected(
     rise: impl FnOnce(&NormalMap, &[bool]) -> Result<Vec<f32>>,
 ) -> Result<()> {
     out.stats.kept_own = 0;
-    restore_decided_by_own(out, (ev, matches), mask);
-    if !noise.quantisation_limited() {
-        return Ok(());
+    let restored = restore_decided_by_own(out, (ev, matches), mask);
+    if noise.quantisation_limited() {
+        let moved: Vec<bool> = (0..mask.data.len())
+            .map(|i| mask.data[i] && out.normals.data[i] != matches.data[i])
+            .collect();
+        let rise = rise(&out.normals, &moved)?;
+        let mut kept = 0;
+        for (i, _) in rise.iter().enumerate().filter(|(_, &d)| d > opts.reject) {
+            take_match(out, (ev, matches), i);
+            out.own_share.data[i] = 1.0;
+            kept += 1;
+        }
+        out.stats.kept_own = kept;
+        out.stats.decided_by_neighbours = (0..mask.data.len())
+            .filter(|&i| mask.data[i] && out.own_share.data[i] < 0.5)
+            .count();
     }
-    let moved: Vec<bool> = (0..mask.data.len())
-        .map(|i| mask.data[i] && out.normals.data[i] != matches.data[i])
-        .collect();
-    let rise = rise(&out.normals, &moved)?;
-    let mut kept = 0;
-    for (i, _) in rise.iter().enumerate().filter(|(_, &d)| d > opts.reject) {
-        out.normals.data[i] = matches.data[i];
-        out.own_share.data[i] = 1.0;
-        out.sigma_deg.data[i] = angular_sigma_deg(ev.u[i], ev.a[i]);
-        kept += 1;
+    if restored || noise.quantisation_limited() {
+        out.stats.mean_sigma_deg = mean_in(&out.sigma_deg, mask);
     }
-    out.stats.kept_own = kept;
-    out.stats.decided_by_neighbours = (0..mask.data.len())
-        .filter(|&i| mask.data[i] && out.own_share.data[i] < 0.5)
-        .count();
-    out.stats.mean_sigma_deg = mean_in(&out.sigma_deg, mask);
     Ok(())
 }
 
