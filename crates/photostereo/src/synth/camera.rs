@@ -86,8 +86,10 @@ impl Camera {
 /// Turn the exposed radiance in `stack` into samples: blur, black level, Gaussian noise
 /// of standard deviation `noise_sigma` (one SplitMix64 stream per image row, seeded by
 /// `seed`, samples drawn row by row, pixel by pixel, light by light), clipping and
-/// quantisation (see the module docs).
-pub(crate) fn develop(stack: &mut ImageStack, camera: &Camera, noise_sigma: f32, seed: u64) {
+/// quantisation (see the module docs). `stack` and `noise_sigma` are in units of the
+/// camera's full scale (1 = the brightest level); `render` calls this on its exposed
+/// radiance, and tests use it to put other images through the same camera.
+pub fn develop(stack: &mut ImageStack, camera: &Camera, noise_sigma: f32, seed: u64) {
     if camera.blur_sigma > 0.0 {
         blur(stack, camera.blur_sigma);
     }
