@@ -67,7 +67,7 @@ pub const CUT: f64 = 1.0;
 /// 2.63 at 3e-4, 1.79–1.87 at 3e-3 and 3.52 at 1e-2 (harvest); it also needs a quarter
 /// of the CG iterations of 1e-4 (harvest 760 against 3091). The paper's implementation
 /// stops its Jacobi-preconditioned CG at a relative residual of 1e-3 too.
-const INNER_TOL: (f64, f64) = (1e-3, super::lsq::TOL);
+const INNER_TOL: (f64, f64) = (1e-3, 1e-6);
 /// Confidence from which a pixel's gradient can mark a discontinuity (with a map).
 pub(crate) const TRUSTED: f64 = 0.5;
 /// Smallest bilateral weight.

@@ -118,9 +118,10 @@ pub enum Method {
     /// Masked least squares: E(z) over the edges whose two ends are both inside the
     /// mask, with optional per-pixel weights (edge weight = the smaller of its two
     /// pixels' weights, plus a membrane prior that fills untrusted regions smoothly:
-    /// [`trust_weights`]). The normal equations L z = b (a weighted graph Laplacian) are solved by
-    /// conjugate gradients with a multigrid preconditioner (relative residual 1e-6; sparse
-    /// Cholesky as a fallback should CG not converge), with one pixel per connected part
+    /// [`trust_weights`]). The normal equations L z = b (a weighted graph Laplacian) are
+    /// solved by conjugate gradients with a multigrid preconditioner (relative residual
+    /// 1e-5, 1e-6 with a camera; sparse Cholesky as a fallback should CG not converge),
+    /// with one pixel per connected part
     /// pinned to 0 (then each part is shifted to mean 0). **Boundary: the mask's own
     /// edge**; holes and several parts are handled exactly. With a camera it solves the
     /// perspective equations of [`Method::Bilateral`] with all bilateral weights 1/2.
