@@ -110,10 +110,12 @@ mod tests {
     use super::*;
     use crate::image::Image;
 
-    fn scratch(name: &str) -> std::path::PathBuf {
-        let d = std::env::temp_dir().join(format!("photostereo-export-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        d.join(name)
+    /// A scratch folder removed when dropped (at the end of the test).
+    fn scratch() -> tempfile::TempDir {
+        tempfile::Builder::new()
+            .prefix("photostereo-export-")
+            .tempdir()
+            .unwrap()
     }
 
     #[test]
@@ -122,8 +124,9 @@ mod tests {
         let mut m = Mask::full(2, 1);
         m.data[1] = false;
         let mut greens = Vec::new();
+        let dir = scratch();
         for style in [NormalMapStyle::OpenGl, NormalMapStyle::DirectX] {
-            let p = scratch(&format!("{style:?}.png"));
+            let p = dir.path().join(format!("{style:?}.png"));
             write_normal_map_png(&p, &n, &m, style).unwrap();
             let img = image::open(&p).unwrap().to_rgb16();
             let [r, g, b] = img.get_pixel(0, 0).0;
@@ -142,7 +145,8 @@ mod tests {
     fn float_tiffs_read_back_exactly() {
         let n = Image::from_fn(3, 2, |r, c| [r as f32 * 0.1, c as f32 * 0.2, 0.5]);
         let d = Image::from_vec(2, 1, vec![1.25f32, f32::NAN]).unwrap();
-        let (pn, pd) = (scratch("n.tif"), scratch("d.tif"));
+        let dir = scratch();
+        let (pn, pd) = (dir.path().join("n.tif"), dir.path().join("d.tif"));
         write_normals_tiff(&pn, &n).unwrap();
         write_depth_tiff(&pd, &d).unwrap();
         let read = |p: &Path| {
@@ -164,15 +168,16 @@ mod tests {
     #[test]
     fn empty_maps_are_errors_or_files_not_panics() {
         let n: NormalMap = Image::filled(0, 0, [0.0; 3]);
-        let _ = write_normals_tiff(&scratch("e.tif"), &n);
+        let dir = scratch();
+        let _ = write_normals_tiff(&dir.path().join("e.tif"), &n);
         let _ = write_normal_map_png(
-            &scratch("e.png"),
+            &dir.path().join("e.png"),
             &n,
             &Mask::full(0, 0),
             NormalMapStyle::OpenGl,
         );
         assert!(write_normal_map_png(
-            &scratch("x.png"),
+            &dir.path().join("x.png"),
             &n,
             &Mask::full(1, 1),
             NormalMapStyle::OpenGl

@@ -226,9 +226,11 @@ mod tests {
 
     #[test]
     fn exposure_rows_are_checked() {
-        let dir = std::env::temp_dir().join(format!("ps-hdr-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join("exposure_times.txt");
+        let dir = tempfile::Builder::new()
+            .prefix("ps-hdr-")
+            .tempdir()
+            .unwrap();
+        let p = dir.path().join("exposure_times.txt");
         std::fs::write(&p, "1 16\n").unwrap();
         assert_eq!(
             read_exposure_times(&p, 3).unwrap(),

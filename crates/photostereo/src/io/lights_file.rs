@@ -326,17 +326,25 @@ pub fn find_light_file(dir: &Path) -> Result<Option<std::path::PathBuf>> {
 mod tests {
     use super::*;
 
-    fn write(name: &str, text: &str) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("ps-lights-file-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join(name);
+    /// `text` written to `name` in `dir` (a scratch folder removed at the end of the test).
+    fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> std::path::PathBuf {
+        let p = dir.path().join(name);
         std::fs::write(&p, text).unwrap();
         p
     }
 
+    fn scratch() -> tempfile::TempDir {
+        tempfile::Builder::new()
+            .prefix("ps-lights-file-")
+            .tempdir()
+            .unwrap()
+    }
+
     #[test]
     fn lp_names_lose_their_foreign_folders_and_directions_are_normalised() {
+        let dir = scratch();
         let p = write(
+            &dir,
             "a.lp",
             "3\r\nC:\\rti\\my shot 1.JPG 0 0 2\r\n/home/u/2.jpg 0.6 0 0.8\r\n3.jpg -0.6 0 0.8\r\n",
         );
@@ -348,10 +356,11 @@ mod tests {
 
     #[test]
     fn lp_round_trips_and_reorders_to_the_images() {
+        let dir = scratch();
         let lights =
             Lights::from_directions(vec![[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.0, 0.6, 0.8]]);
         let names: Vec<String> = ["a.png", "b.png", "c.png"].map(String::from).to_vec();
-        let p = write("rt.lp", "");
+        let p = write(&dir, "rt.lp", "");
         write_lp(&p, &names, &lights).unwrap();
         let back = read_lights_for(&p, &["c.png".into(), "a.png".into(), "b.png".into()]).unwrap();
         assert_eq!(back.directions[0], lights.directions[2]);
@@ -363,22 +372,23 @@ mod tests {
 
     #[test]
     fn lp_errors_name_the_line() {
-        let e = read_lp(&write("c.lp", "2\na.jpg 0 0 1\n"))
+        let dir = scratch();
+        let e = read_lp(&write(&dir, "c.lp", "2\na.jpg 0 0 1\n"))
             .unwrap_err()
             .to_string();
         assert!(
             e.contains("c.lp") && e.contains("expected 2") && e.contains("found 1"),
             "{e}"
         );
-        let e = read_lp(&write("z.lp", "1\na.jpg 0 0 0\n"))
+        let e = read_lp(&write(&dir, "z.lp", "1\na.jpg 0 0 0\n"))
             .unwrap_err()
             .to_string();
         assert!(e.contains("line 2") && e.contains("zero-length"), "{e}");
-        let e = read_lp(&write("n.lp", "1\na.jpg 0 x 1\n"))
+        let e = read_lp(&write(&dir, "n.lp", "1\na.jpg 0 x 1\n"))
             .unwrap_err()
             .to_string();
         assert!(e.contains("line 2") && e.contains("`x`"), "{e}");
-        let e = read_lp(&write("f.lp", "1\n0 0 1\n"))
+        let e = read_lp(&write(&dir, "f.lp", "1\n0 0 1\n"))
             .unwrap_err()
             .to_string();
         assert!(e.contains("filename x y z"), "{e}");
@@ -386,7 +396,9 @@ mod tests {
 
     #[test]
     fn alicevision_json_directions_and_intensities() {
+        let dir = scratch();
         let p = write(
+            &dir,
             "lights.json",
             r#"{"lights": [{"lightId": 4, "intensity": [2, 1, 1], "direction": [0, 0, 3]},
                            {"viewId": 9, "intensity": 0.5, "direction": [0.6, 0, 0.8]}]}"#,
@@ -395,6 +407,7 @@ mod tests {
         assert_eq!(f.lights.directions, vec![[0.0, 0.0, 1.0], [0.6, 0.0, 0.8]]);
         assert_eq!(f.intensities.unwrap(), vec![[2.0, 1.0, 1.0], [0.5; 3]]);
         let bad = write(
+            &dir,
             "bad.json",
             r#"{"lights": [{"lightId": 7, "direction": [0, 0, 0]}]}"#,
         );
@@ -403,7 +416,7 @@ mod tests {
             e.contains("bad.json") && e.contains("light 7") && e.contains("zero"),
             "{e}"
         );
-        let e = read_alicevision_json(&write("x.json", "{}"))
+        let e = read_alicevision_json(&write(&dir, "x.json", "{}"))
             .unwrap_err()
             .to_string();
         assert!(e.contains("\"lights\""), "{e}");
