@@ -31,7 +31,8 @@ const TOLERANCE: f64 = 1e-5;
 /// error. Measured (2026-12-04): the same errors as a bound of 0.01 on the *largest*
 /// correction (`tests/camera_images.rs`, every row within 0.001°), at half its extra
 /// cost on 2048² renders (`normals` wall time over the relative-residual test alone:
-/// clean metal +16% against +26%, blurred 8-bit plastic +17% against +38%); 1e-3 is
+/// clean metal +11% against +23%, blurred 8-bit plastic +10% against +35%; medians of
+/// three alternated runs, docs/benchmarks.md, "Spatial stage"); 1e-3 is
 /// cheaper still but gives back part of the gain (8-bit metal 0.273 → 0.281°).
 const STEP_TOLERANCE: f64 = 1e-4;
 /// Ridge (× λ) that pulls every pixel towards its own match (keeps the system definite
