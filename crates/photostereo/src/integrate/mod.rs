@@ -121,10 +121,10 @@ pub enum Method {
     /// [`trust_weights`]). The normal equations L z = b (a weighted graph Laplacian) are
     /// solved by conjugate gradients with a multigrid preconditioner (relative residual
     /// 1e-5, 1e-6 with a camera; sparse Cholesky as a fallback should CG not converge),
-    /// with one pixel per connected part
-    /// pinned to 0 (then each part is shifted to mean 0). **Boundary: the mask's own
-    /// edge**; holes and several parts are handled exactly. With a camera it solves the
-    /// perspective equations of [`Method::Bilateral`] with all bilateral weights 1/2.
+    /// with one pixel per connected part pinned to 0 (then each part is shifted to mean
+    /// 0). **Boundary: the mask's own edge**; holes and several parts are handled
+    /// exactly. With a camera it solves the perspective equations of
+    /// [`Method::Bilateral`] with all bilateral weights 1/2.
     Lsq,
     /// Bilateral normal integration (Cao et al., ECCV 2022): one-sided differences to the
     /// four neighbours, each weighted by a sigmoid of the squared difference of the two

@@ -110,21 +110,13 @@ mod tests {
     use super::*;
     use crate::image::Image;
 
-    /// A scratch folder removed when dropped (at the end of the test).
-    fn scratch() -> tempfile::TempDir {
-        tempfile::Builder::new()
-            .prefix("photostereo-export-")
-            .tempdir()
-            .unwrap()
-    }
-
     #[test]
     fn directx_flips_green_and_the_background_is_flat() {
         let n = Image::from_vec(2, 1, vec![[0.6f32, 0.8, 0.0], [0.0, 1.0, 0.0]]).unwrap();
         let mut m = Mask::full(2, 1);
         m.data[1] = false;
         let mut greens = Vec::new();
-        let dir = scratch();
+        let dir = tempfile::tempdir().unwrap();
         for style in [NormalMapStyle::OpenGl, NormalMapStyle::DirectX] {
             let p = dir.path().join(format!("{style:?}.png"));
             write_normal_map_png(&p, &n, &m, style).unwrap();
@@ -145,7 +137,7 @@ mod tests {
     fn float_tiffs_read_back_exactly() {
         let n = Image::from_fn(3, 2, |r, c| [r as f32 * 0.1, c as f32 * 0.2, 0.5]);
         let d = Image::from_vec(2, 1, vec![1.25f32, f32::NAN]).unwrap();
-        let dir = scratch();
+        let dir = tempfile::tempdir().unwrap();
         let (pn, pd) = (dir.path().join("n.tif"), dir.path().join("d.tif"));
         write_normals_tiff(&pn, &n).unwrap();
         write_depth_tiff(&pd, &d).unwrap();
@@ -168,7 +160,7 @@ mod tests {
     #[test]
     fn empty_maps_are_errors_or_files_not_panics() {
         let n: NormalMap = Image::filled(0, 0, [0.0; 3]);
-        let dir = scratch();
+        let dir = tempfile::tempdir().unwrap();
         let _ = write_normals_tiff(&dir.path().join("e.tif"), &n);
         let _ = write_normal_map_png(
             &dir.path().join("e.png"),

@@ -226,10 +226,7 @@ mod tests {
 
     #[test]
     fn exposure_rows_are_checked() {
-        let dir = tempfile::Builder::new()
-            .prefix("ps-hdr-")
-            .tempdir()
-            .unwrap();
+        let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("exposure_times.txt");
         std::fs::write(&p, "1 16\n").unwrap();
         assert_eq!(

@@ -333,16 +333,9 @@ mod tests {
         p
     }
 
-    fn scratch() -> tempfile::TempDir {
-        tempfile::Builder::new()
-            .prefix("ps-lights-file-")
-            .tempdir()
-            .unwrap()
-    }
-
     #[test]
     fn lp_names_lose_their_foreign_folders_and_directions_are_normalised() {
-        let dir = scratch();
+        let dir = tempfile::tempdir().unwrap();
         let p = write(
             &dir,
             "a.lp",
@@ -356,7 +349,7 @@ mod tests {
 
     #[test]
     fn lp_round_trips_and_reorders_to_the_images() {
-        let dir = scratch();
+        let dir = tempfile::tempdir().unwrap();
         let lights =
             Lights::from_directions(vec![[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.0, 0.6, 0.8]]);
         let names: Vec<String> = ["a.png", "b.png", "c.png"].map(String::from).to_vec();
@@ -372,7 +365,7 @@ mod tests {
 
     #[test]
     fn lp_errors_name_the_line() {
-        let dir = scratch();
+        let dir = tempfile::tempdir().unwrap();
         let e = read_lp(&write(&dir, "c.lp", "2\na.jpg 0 0 1\n"))
             .unwrap_err()
             .to_string();
@@ -396,7 +389,7 @@ mod tests {
 
     #[test]
     fn alicevision_json_directions_and_intensities() {
-        let dir = scratch();
+        let dir = tempfile::tempdir().unwrap();
         let p = write(
             &dir,
             "lights.json",
