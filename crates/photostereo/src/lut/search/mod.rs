@@ -6,6 +6,7 @@ use super::fit::generic::{Fit, Model, Scratch};
 use super::fit::rim::{Rim, RimBuf};
 use super::options::{Method, Options};
 use super::output::PixelOut;
+use super::table::Table;
 use crate::image::normalize;
 use std::sync::atomic::AtomicU32;
 
@@ -54,6 +55,38 @@ impl Warm {
             dgx: 0.0,
             dgy: 0.0,
             masked: false,
+        }
+    }
+}
+
+/// The rim model with what its trigger (`Solver::rim_fit`) tests at every pixel,
+/// computed once per target rather than per pixel (a cosine and a square root).
+struct RimGate<'a> {
+    rim: &'a Rim,
+    /// `Rim::tried_below`: the cosine of the polar angle below which fits are refitted.
+    tried_below: f64,
+    /// Table 0's circle centre on its window grid.
+    centre: (f64, f64),
+    /// Squared grid distance from the centre inside which every fit's normal has
+    /// n_z > `tried_below` with a margin (1e-6 on n_z, against f32 rounding of the
+    /// normal), so that the exact test can be skipped.
+    clear2: f64,
+}
+
+impl<'a> RimGate<'a> {
+    fn new(rim: &'a Rim, t0: &Table) -> Self {
+        let tried_below = rim.tried_below();
+        let c = tried_below + 1e-6;
+        let clear2 = if c < 1.0 {
+            t0.circle.radius.powi(2) * (1.0 - c * c)
+        } else {
+            -1.0
+        };
+        RimGate {
+            rim,
+            tried_below,
+            centre: t0.to_grid(t0.circle.cx, t0.circle.cy),
+            clear2,
         }
     }
 }
@@ -186,7 +219,7 @@ pub(crate) struct Solver<'a> {
     /// Brightness scale of each table (largest sample).
     peaks: [f32; 2],
     /// The table's extension past its last clean ring (one table, refined lookup).
-    rim: Option<&'a Rim>,
+    rim: Option<RimGate<'a>>,
     /// Isolation radius of each entry as f32 bits, computed when first needed
     /// (`certify::UNSET` before; see `certified`; one table, refined lookup).
     isolation: &'a [AtomicU32],
@@ -204,6 +237,10 @@ impl<'a> Solver<'a> {
         let single = (!model.is_mix()).then(|| Single::new(&model.tables[0], opts.normalize));
         let mut ones = vec![0.0; fused::padded(k)];
         ones[..k].fill(1.0);
+        let rim = prep
+            .rim
+            .as_ref()
+            .map(|rim| RimGate::new(rim, &model.tables[0]));
         Solver {
             model,
             opts,
@@ -215,7 +252,7 @@ impl<'a> Solver<'a> {
             coarse_basis: &prep.coarse_basis,
             coarse_step: prep.coarse_step,
             peaks: prep.peaks,
-            rim: prep.rim.as_ref(),
+            rim,
             isolation: &prep.isolation,
             mixture: prep.mixture.as_ref(),
             exhaustive_only: false,
@@ -352,27 +389,30 @@ impl<'a> Solver<'a> {
     /// the same lights, when it lies at the table's edge or is worse than [`WARM_FLOOR`];
     /// kept when its residual is lower.
     fn rim_fit(&self, fit: Fit, wk: &mut Work) -> Fit {
-        let Some(rim) = &self.rim else {
+        let Some(gate) = &self.rim else {
             return fit;
         };
+        let (cgx, cgy) = gate.centre;
+        let d2 = (fit.gx - cgx).powi(2) + (fit.gy - cgy).powi(2);
+        if d2 < gate.clear2 {
+            return fit;
+        }
         let t0 = &self.model.tables[0];
         let n0 = t0.grid_normal(fit.gx, fit.gy);
-        if f64::from(n0[2]) > rim.tried_below() {
+        if f64::from(n0[2]) > gate.tried_below {
             return fit;
         }
         // inside the table's edge, a fit already within the coherence tests' floor is
         // left alone: the refit could not improve it measurably, and a third of a
         // sphere's pixels lie beyond `tried_below` (refitting them all slowed the
         // prepared lookup of `benches/sklearn_lookup.py` by a quarter)
-        let (cgx, cgy) = t0.to_grid(t0.circle.cx, t0.circle.cy);
-        let d = ((fit.gx - cgx).powi(2) + (fit.gy - cgy).powi(2)).sqrt();
-        let at_edge = d >= t0.search_radius() - RIM_TRIGGER;
+        let at_edge = d2.sqrt() >= t0.search_radius() - RIM_TRIGGER;
         if !at_edge && relative_to(wk.norm, fit.cost) <= WARM_FLOOR {
             return fit;
         }
         let k = self.model.k;
         let (t, w) = (&wk.t[..k], &wk.w[..k]);
-        let (theta, phi, c, cost) = rim.solve(t, w, n0, self.opts.normalize, &mut wk.rim);
+        let (theta, phi, c, cost) = gate.rim.solve(t, w, n0, self.opts.normalize, &mut wk.rim);
         if cost < fit.cost {
             wk.fresh = false;
             Rim::to_fit(t0, theta, phi, c, cost)
