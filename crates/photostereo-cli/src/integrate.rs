@@ -3,8 +3,10 @@
 use crate::progress::Bar;
 use crate::Global;
 use anyhow::Context;
-use photostereo::integrate::{choose_method, solve_with_progress, Camera, Method, Options, Parts};
-use photostereo::{io, mesh, Mask};
+use photostereo::integrate::{
+    choose_method, solve_with_progress, Camera, Method, Options, Output, Parts,
+};
+use photostereo::{io, mesh, Mask, NormalMap};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -112,33 +114,10 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     );
     let parts = Parts::from_name(&args.parts)?;
     let normals = io::read_normals_npy(&args.normals)?;
-    let mask = match &args.mask {
-        Some(p) => io::read_mask_any(p)?,
-        None => Mask::full(normals.width, normals.height),
-    };
-    mask.check_size(
-        normals.width,
-        normals.height,
-        &format!(
-            "mask {}",
-            args.mask.as_deref().unwrap_or(Path::new("")).display()
-        ),
-    )?;
-    let mut method = match &args.method {
-        Some(name) => Method::from_name(name)?,
-        None => choose_method(&mask),
-    };
-    if let Method::Bilateral { k, .. } = &mut method {
-        anyhow::ensure!(
-            args.bini_k.is_finite() && args.bini_k > 0.0,
-            "--bini-k must be a positive number, got {}",
-            args.bini_k
-        );
-        *k = args.bini_k;
-    }
+    let mask = read_mask(&args, &normals)?;
+    let method = method(&args, &mask)?;
     let camera = camera(&args, normals.width, normals.height)?;
     let weights = args.weights.as_deref().map(io::read_gray_npy).transpose()?;
-    let albedo = args.albedo.as_deref().map(io::read_gray_npy).transpose()?;
     let opts = Options {
         method,
         weights,
@@ -146,23 +125,12 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         camera,
         parts,
     };
+    let albedo = args.albedo.as_deref().map(io::read_gray_npy).transpose()?;
     let start = Instant::now();
     let out = solve_with_progress(&normals, &mask, &opts, &Bar::new(global.quiet))
         .with_context(|| format!("integrating {}", args.normals.display()))?;
     let seconds = start.elapsed().as_secs_f64();
-    if out.clamped > 0 {
-        eprintln!(
-            "warning: {} normals inside the mask had n_z <= {} or NaN; they were clamped (slope limited to {:.0}, NaN counted as flat){}",
-            out.clamped,
-            args.min_nz,
-            1.0 / args.min_nz.max(f32::MIN_POSITIVE),
-            if args.mask.is_none() {
-                "; without --mask the background counts too: pass the object mask"
-            } else {
-                ""
-            }
-        );
-    }
+    warn_clamped(&args, out.clamped);
     // Build everything before writing anything.
     let built_mesh = match &args.mesh {
         Some(_) => Some(mesh::from_depth_with(
@@ -178,63 +146,152 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         )?),
         None => None,
     };
+    let png = write_outputs(&args, &out, &mask, built_mesh.as_ref())?;
+    if !global.quiet {
+        let what = Summary {
+            normals: &normals,
+            mask: &mask,
+            method: &opts.method,
+            seconds,
+        };
+        print_summary(&args, &what, &out, &png, built_mesh.as_ref());
+    }
+    Ok(())
+}
+
+/// The mask given with `--mask` (checked against the normal map's size), or the whole
+/// image.
+fn read_mask(args: &Args, normals: &NormalMap) -> anyhow::Result<Mask> {
+    let mask = match &args.mask {
+        Some(p) => io::read_mask_any(p)?,
+        None => Mask::full(normals.width, normals.height),
+    };
+    mask.check_size(
+        normals.width,
+        normals.height,
+        &format!(
+            "mask {}",
+            args.mask.as_deref().unwrap_or(Path::new("")).display()
+        ),
+    )?;
+    Ok(mask)
+}
+
+/// The integrator named with `--integrator` (or chosen from the mask), with `--bini-k`.
+fn method(args: &Args, mask: &Mask) -> anyhow::Result<Method> {
+    let mut method = match &args.method {
+        Some(name) => Method::from_name(name)?,
+        None => choose_method(mask),
+    };
+    if let Method::Bilateral { k, .. } = &mut method {
+        anyhow::ensure!(
+            args.bini_k.is_finite() && args.bini_k > 0.0,
+            "--bini-k must be a positive number, got {}",
+            args.bini_k
+        );
+        *k = args.bini_k;
+    }
+    Ok(method)
+}
+
+/// Warn when normals inside the mask were clamped to `--min-nz`.
+fn warn_clamped(args: &Args, clamped: usize) {
+    if clamped == 0 {
+        return;
+    }
+    eprintln!(
+        "warning: {} normals inside the mask had n_z <= {} or NaN; they were clamped (slope limited to {:.0}, NaN counted as flat){}",
+        clamped,
+        args.min_nz,
+        1.0 / args.min_nz.max(f32::MIN_POSITIVE),
+        if args.mask.is_none() {
+            "; without --mask the background counts too: pass the object mask"
+        } else {
+            ""
+        }
+    );
+}
+
+/// Write the depth map, its preview and the mesh; returns the preview's path.
+fn write_outputs(
+    args: &Args,
+    out: &Output,
+    mask: &Mask,
+    built_mesh: Option<&mesh::Mesh>,
+) -> anyhow::Result<PathBuf> {
     io::write_gray_npy(&args.output, &out.depth)?;
     let png = args.output.with_extension("png");
-    io::write_depth_png(&png, &out.depth, Some(&mask))?;
-    if let (Some(path), Some(m)) = (&args.mesh, &built_mesh) {
+    io::write_depth_png(&png, &out.depth, Some(mask))?;
+    if let (Some(path), Some(m)) = (&args.mesh, built_mesh) {
         let kind = mesh_kind(path)?;
         io::write_atomic(path, |w| match kind {
             "ply" => mesh::write_ply_binary(m, w),
             _ => mesh::write_obj(m, w),
         })?;
     }
-    if !global.quiet {
+    Ok(png)
+}
+
+/// What the summary reports besides the solver's output.
+struct Summary<'a> {
+    normals: &'a NormalMap,
+    mask: &'a Mask,
+    method: &'a Method,
+    seconds: f64,
+}
+
+/// The summary on stdout: sizes, method, residual, the method's own figures, files.
+fn print_summary(
+    args: &Args,
+    what: &Summary<'_>,
+    out: &Output,
+    png: &Path,
+    built_mesh: Option<&mesh::Mesh>,
+) {
+    println!(
+        "{}: {}x{}, {} pixels in {} part(s), method {}, {:.3} s",
+        args.normals.display(),
+        what.normals.width,
+        what.normals.height,
+        what.mask.count(),
+        out.components,
+        what.method.name(),
+        what.seconds
+    );
+    println!(
+        "gradient residual (RMS per pixel step): {:.4}",
+        out.info.residual
+    );
+    if let Method::Lsq = what.method {
         println!(
-            "{}: {}x{}, {} pixels in {} part(s), method {}, {:.3} s",
-            args.normals.display(),
-            normals.width,
-            normals.height,
-            mask.count(),
-            out.components,
-            method.name(),
-            seconds
+            "lsq: {} conjugate-gradient iterations (0: solved by sparse Cholesky)",
+            out.info.iterations
         );
-        println!(
-            "gradient residual (RMS per pixel step): {:.4}",
-            out.info.residual
-        );
-        if let Method::Lsq = method {
-            println!(
-                "lsq: {} conjugate-gradient iterations (0: solved by sparse Cholesky)",
-                out.info.iterations
-            );
-        }
-        if let Method::Bilateral { .. } = method {
-            println!(
-                "bini: {} reweighting iterations ({} CG), {} discontinuity edges",
-                out.info.iterations,
-                out.info.inner_iterations,
-                out.discontinuities.as_ref().map_or(0, |d| d.count())
-            );
-        }
-        if let Some(cam) = &out.camera {
-            println!(
-                "perspective: fx {:.1}, fy {:.1}, cx {:.1}, cy {:.1}; depth = distance along the optical axis",
-                cam.fx, cam.fy, cam.cx, cam.cy
-            );
-        }
-        if let Some(d) = out.path_disagreement {
-            println!("path disagreement (RMS, pixels): {d:.4}");
-        }
-        println!("wrote {} and {}", args.output.display(), png.display());
-        if let (Some(path), Some(m)) = (&args.mesh, &built_mesh) {
-            println!(
-                "wrote {} ({} vertices, {} triangles)",
-                path.display(),
-                m.vertices.len(),
-                m.faces.len()
-            );
-        }
     }
-    Ok(())
+    if let Method::Bilateral { .. } = what.method {
+        println!(
+            "bini: {} reweighting iterations ({} CG), {} discontinuity edges",
+            out.info.iterations,
+            out.info.inner_iterations,
+            out.discontinuities.as_ref().map_or(0, |d| d.count())
+        );
+    }
+    if let Some(cam) = &out.camera {
+        println!(
+            "perspective: fx {:.1}, fy {:.1}, cx {:.1}, cy {:.1}; depth = distance along the optical axis",
+            cam.fx, cam.fy, cam.cx, cam.cy
+        );
+    }
+    if let Some(d) = out.path_disagreement {
+        println!("path disagreement (RMS, pixels): {d:.4}");
+    }
+    println!("wrote {} and {}", args.output.display(), png.display());
+    if let (Some(path), Some(m)) = (&args.mesh, built_mesh) {
+        println!(
+            "wrote {} ({} vertices, {} triangles)",
+            path.display(),
+            m.vertices.len(),
+            m.faces.len()
+        );
+    }
 }
