@@ -345,47 +345,22 @@ fn finish(
         None => None,
     };
     let accuracy = if has_truth {
-        st.run("accuracy", |_| match truth_dir {
-            Some(dir) => {
-                let (normals, depth_gt) = crate::io::read_ground_truth(dir)?;
-                let truth = Truth {
-                    normals,
-                    depth: depth_gt,
-                };
-                stages::accuracy(&truth, &job.mask, &est.normals, &depth)
-            }
-            None => stages::accuracy(&job.truth, &job.mask, &est.normals, &depth),
-        })?
+        st.run("accuracy", |_| accuracy_of(job, &est, &depth, truth_dir))?
     } else {
         Accuracy::default()
     };
-    let mut figures = Vec::new();
-    if let Some(det) = &circle {
-        figures.push(Figure::new(
-            "sphere circle (cx, cy, r) px",
-            figures::circle(det),
-        ));
-    }
-    figures.extend(figures::summary(
-        job, &est, &depth, &mesh, method, &accuracy, &ir,
-    ));
-    if let Some(info) = &est.spatial {
-        figures.extend(spatial_stage::rows(info, &job.mask));
-    }
-    if let Some(why) = why {
-        for row in figures.iter_mut().filter(|r| r.name == "integrator") {
-            row.value = format!("{} ({why})", method.name());
-        }
-    }
-    figures.extend(figures::picture_rows(job, est.albedo.as_ref(), &depth));
-    if let Some(c) = &curv {
-        figures.push(figures::curvature_row(c));
-    }
-    let mut warnings = figures::warnings(job, est.confidence.as_ref(), opts);
-    let stats = est.spatial.as_ref().and_then(|s| s.stats.as_ref());
-    let (more, rows) = checks::warnings(job, circle.as_ref(), stats, opts);
-    warnings.extend(more);
-    figures.extend(rows);
+    let done = Finished {
+        est: &est,
+        depth: &depth,
+        mesh: &mesh,
+        method,
+        accuracy: &accuracy,
+        circle: circle.as_ref(),
+        ir: &ir,
+        why: why.as_deref(),
+        curvature: curv.as_ref(),
+    };
+    let (figures, warnings) = report_rows(job, opts, &done);
     for w in &warnings {
         progress.note(&format!("warning: {w}"));
     }
@@ -409,6 +384,80 @@ fn finish(
         chrome: None,
         curvature: curv,
     })
+}
+
+/// Accuracy against the job's ground truth, or with `truth_dir` against that folder's
+/// (read here, only for this stage).
+fn accuracy_of(
+    job: &Job,
+    est: &Estimate,
+    depth: &DepthMap,
+    truth_dir: Option<&std::path::Path>,
+) -> Result<Accuracy> {
+    match truth_dir {
+        Some(dir) => {
+            let (normals, depth_gt) = crate::io::read_ground_truth(dir)?;
+            let truth = Truth {
+                normals,
+                depth: depth_gt,
+            };
+            stages::accuracy(&truth, &job.mask, &est.normals, depth)
+        }
+        None => stages::accuracy(&job.truth, &job.mask, &est.normals, depth),
+    }
+}
+
+/// What [`finish`] computed, for the report's rows.
+struct Finished<'a> {
+    est: &'a Estimate,
+    depth: &'a DepthMap,
+    mesh: &'a mesh::Mesh,
+    method: integrate::Method,
+    accuracy: &'a Accuracy,
+    circle: Option<&'a sphere::Detection>,
+    ir: &'a Option<Interreflections>,
+    /// Why the automatic choice changed the integrator, when it did.
+    why: Option<&'a str>,
+    curvature: Option<&'a curvature::Curvature>,
+}
+
+/// The report's figure rows and the run's warnings.
+fn report_rows(job: &Job, opts: &Options, done: &Finished<'_>) -> (Vec<Figure>, Vec<Warning>) {
+    let est = done.est;
+    let mut figures = Vec::new();
+    if let Some(det) = done.circle {
+        figures.push(Figure::new(
+            "sphere circle (cx, cy, r) px",
+            figures::circle(det),
+        ));
+    }
+    figures.extend(figures::summary(
+        job,
+        est,
+        done.depth,
+        done.mesh,
+        done.method,
+        done.accuracy,
+        done.ir,
+    ));
+    if let Some(info) = &est.spatial {
+        figures.extend(spatial_stage::rows(info, &job.mask));
+    }
+    if let Some(why) = done.why {
+        for row in figures.iter_mut().filter(|r| r.name == "integrator") {
+            row.value = format!("{} ({why})", done.method.name());
+        }
+    }
+    figures.extend(figures::picture_rows(job, est.albedo.as_ref(), done.depth));
+    if let Some(c) = done.curvature {
+        figures.push(figures::curvature_row(c));
+    }
+    let mut warnings = figures::warnings(job, est.confidence.as_ref(), opts);
+    let stats = est.spatial.as_ref().and_then(|s| s.stats.as_ref());
+    let (more, rows) = checks::warnings(job, done.circle, stats, opts);
+    warnings.extend(more);
+    figures.extend(rows);
+    (figures, warnings)
 }
 
 /// The calibration of [`Normals::Lookup`]: detect the sphere (inside `sphere_mask` when
