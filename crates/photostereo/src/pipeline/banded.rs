@@ -138,7 +138,6 @@ pub(super) fn run(
     let t0 = Instant::now();
     let (load_opts, others) = inputs.load_options();
     let ds = io::open_dataset_bands(&inputs.target, &load_opts)?;
-    let k = ds.header.k();
     let (w, h) = (ds.header.width, ds.header.height);
     let sphere = match &inputs.sphere {
         Some(dir) => Some((dir, io::open_dataset_bands(dir, &others)?)),
@@ -154,47 +153,13 @@ pub(super) fn run(
         .unwrap_or_else(|| plan::default_budget(io::system_memory()));
     let the_plan = plan::plan(&ds.header, extra, budget)?;
     progress.note(&the_plan.to_string());
-    let image_scale = if inputs.lambertian {
-        let scale = radiance_scale(&inputs.target, inputs.image_scale, false)?;
-        let from = match (
-            inputs.image_scale.is_some(),
-            scale_is_known(&inputs.target, inputs.image_scale, false)?,
-        ) {
-            (true, _) => "given",
-            _ => "not given: images taken as radiance units",
-        };
-        Some((scale, from))
-    } else {
-        None
-    };
+    let image_scale = image_scale(inputs)?;
     let mut mask = ds.mask.clone().unwrap_or_else(|| Mask::full(w, h));
+    let mut warnings: Vec<Warning> = leave_out_sphere(inputs, opts, &mut mask)?
+        .into_iter()
+        .collect();
     let mut stages = Vec::new();
-    let (mut chrome, mut warnings) = (None, Vec::new());
-    warnings.extend(leave_out_sphere(inputs, opts, &mut mask)?);
-    let normals = match (&inputs.calibration, sphere) {
-        (Some(cal), _) => Normals::Calibrated(Box::new(cal.clone())),
-        (None, Some((dir, _))) => {
-            let sp = io::load_dataset(dir, &io::LoadOptions::default())?;
-            if sp.stack.k != k {
-                return Err(k_mismatch(dir, sp.stack.k, &inputs.target, k));
-            }
-            Normals::Lookup {
-                sphere: sp.stack,
-                sphere_mask: sp.mask,
-            }
-        }
-        (None, None) => {
-            let t = Instant::now();
-            let (lights, det) = lights(inputs, ds.lights.clone(), &file_names(&ds), progress)?;
-            if let Some((det, mirror)) = det {
-                let code = WarningCode::NotAMirror;
-                warnings.extend(mirror.warning().map(|m| Warning::new(code, m)));
-                chrome = Some(det);
-            }
-            stages.push(("lights".to_string(), t.elapsed().as_secs_f64()));
-            Normals::Lambertian { lights }
-        }
-    };
+    let (normals, chrome) = normals_of(inputs, &ds, sphere, progress, &mut stages, &mut warnings)?;
     stages.insert(0, ("load".to_string(), t0.elapsed().as_secs_f64()));
     let mut cap = Capture {
         ds,
@@ -233,6 +198,62 @@ pub(super) fn run(
         output,
         report: written.report,
         summary: written.summary,
+    })
+}
+
+/// The images' scale to radiance units for a Lambertian run, with where it came from.
+fn image_scale(inputs: &Inputs) -> Result<Option<(f32, &'static str)>> {
+    if !inputs.lambertian {
+        return Ok(None);
+    }
+    let scale = radiance_scale(&inputs.target, inputs.image_scale, false)?;
+    let from = match (
+        inputs.image_scale.is_some(),
+        scale_is_known(&inputs.target, inputs.image_scale, false)?,
+    ) {
+        (true, _) => "given",
+        _ => "not given: images taken as radiance units",
+    };
+    Ok(Some((scale, from)))
+}
+
+/// How the run gets its normals: a calibration given, the sphere's table (its folder
+/// loaded whole: it must have the target's K images) or the light directions (timed as
+/// the `lights` stage; a chrome sphere's detection is returned for the report).
+fn normals_of(
+    inputs: &Inputs,
+    ds: &DatasetBands,
+    sphere: Option<(&std::path::PathBuf, DatasetBands)>,
+    progress: &dyn Progress,
+    stages: &mut Vec<(String, f64)>,
+    warnings: &mut Vec<Warning>,
+) -> Result<(Normals, Option<crate::sphere::Detection>)> {
+    let k = ds.header.k();
+    Ok(match (&inputs.calibration, sphere) {
+        (Some(cal), _) => (Normals::Calibrated(Box::new(cal.clone())), None),
+        (None, Some((dir, _))) => {
+            let sp = io::load_dataset(dir, &io::LoadOptions::default())?;
+            if sp.stack.k != k {
+                return Err(k_mismatch(dir, sp.stack.k, &inputs.target, k));
+            }
+            let normals = Normals::Lookup {
+                sphere: sp.stack,
+                sphere_mask: sp.mask,
+            };
+            (normals, None)
+        }
+        (None, None) => {
+            let t = Instant::now();
+            let (lights, det) = lights(inputs, ds.lights.clone(), &file_names(ds), progress)?;
+            let mut chrome = None;
+            if let Some((det, mirror)) = det {
+                let code = WarningCode::NotAMirror;
+                warnings.extend(mirror.warning().map(|m| Warning::new(code, m)));
+                chrome = Some(det);
+            }
+            stages.push(("lights".to_string(), t.elapsed().as_secs_f64()));
+            (Normals::Lambertian { lights }, chrome)
+        }
     })
 }
 
