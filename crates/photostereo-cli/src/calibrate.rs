@@ -4,7 +4,7 @@ use crate::Global;
 use anyhow::Context;
 use photostereo::io;
 use photostereo::lut::{BuildOptions, Denoise, Table};
-use photostereo::sphere::{self, Circle, DetectOptions};
+use photostereo::sphere::{self, Circle, DetectOptions, Detection};
 use std::path::PathBuf;
 
 /// Arguments of `photostereo calibrate`.
@@ -76,6 +76,39 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     };
     let data = io::load_dataset(&args.dir, &load)
         .with_context(|| format!("loading the sphere images from {}", args.dir.display()))?;
+    let det = find_circle(&args, &data, global.quiet)?;
+    let c = det.circle;
+    let say = |s: String| {
+        if !global.quiet {
+            println!("{s}");
+        }
+    };
+    let opts = BuildOptions {
+        rim: args.rim,
+        material: args.material.clone(),
+        smooth: args.smooth,
+        denoise: args.denoise.unwrap_or_default(),
+    };
+    let table = Table::build(&data.stack, &c, &opts)
+        .with_context(|| format!("building the lookup table from {}", args.dir.display()))?;
+    describe_table(&table, opts.denoise, &say);
+    // everything is computed before the first file is written
+    let bytes = table.to_bytes();
+    let png = sphere::encode_png(&sphere::overlay(&det.max_image, &c))?;
+    let overlay_path = crate::lights::side_file(&args.output, "overlay.png");
+    io::write_bytes(&args.output, &bytes)?;
+    io::write_bytes(&overlay_path, &png)?;
+    say(format!(
+        "lookup table written to {}; check the circle in {}",
+        args.output.display(),
+        overlay_path.display()
+    ));
+    Ok(())
+}
+
+/// The sphere's circle (given with `--circle`, else found in the images), with the checks
+/// of a given circle against the images or of a found one's shape printed and warned.
+fn find_circle(args: &Args, data: &io::Dataset, quiet: bool) -> anyhow::Result<Detection> {
     // the mask (--sphere-mask, else the folder's mask.png unless --sphere-region is
     // given, the same rule as `run --sphere`) restricts the search; the circle itself
     // always comes from the images' rim
@@ -91,9 +124,8 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     };
     let det = sphere::detect(&data.stack, &detect)
         .with_context(|| format!("finding the sphere in {}", args.dir.display()))?;
-    let c = det.circle;
     let say = |s: String| {
-        if !global.quiet {
+        if !quiet {
             println!("{s}");
         }
     };
@@ -121,23 +153,20 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
             eprintln!("warning: {w}");
         }
     }
-    let opts = BuildOptions {
-        rim: args.rim,
-        material: args.material.clone(),
-        smooth: args.smooth,
-        denoise: args.denoise.unwrap_or_default(),
-    };
-    let table = Table::build(&data.stack, &c, &opts)
-        .with_context(|| format!("building the lookup table from {}", args.dir.display()))?;
+    Ok(det)
+}
+
+/// Print the table's size and build, and how `--normalize` treats its material.
+fn describe_table(table: &Table, denoise: Denoise, say: &dyn Fn(String)) {
     say(format!(
         "table: {} entries, K = {}, rim {} px, {}, material '{}'",
         table.entries.len(),
         table.k,
         table.rim,
-        denoising(opts.denoise, table.smooth),
+        denoising(denoise, table.smooth),
         table.material
     ));
-    let share = photostereo::lut::specular_share(&table);
+    let share = photostereo::lut::specular_share(table);
     let kind = if share > photostereo::lut::SPECULAR_SHARE {
         "specular: `normals --normalize` fits diffuse + specular for albedo changes"
     } else {
@@ -147,18 +176,6 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         "{:.1}% of the sphere's light is not Lambertian ({kind})",
         100.0 * share
     ));
-    // everything is computed before the first file is written
-    let bytes = table.to_bytes();
-    let png = sphere::encode_png(&sphere::overlay(&det.max_image, &c))?;
-    let overlay_path = crate::lights::side_file(&args.output, "overlay.png");
-    io::write_bytes(&args.output, &bytes)?;
-    io::write_bytes(&overlay_path, &png)?;
-    say(format!(
-        "lookup table written to {}; check the circle in {}",
-        args.output.display(),
-        overlay_path.display()
-    ));
-    Ok(())
 }
 
 /// How the table was denoised, for the log line: the blur's σ, or the normal-space fit
