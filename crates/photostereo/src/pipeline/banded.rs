@@ -348,85 +348,106 @@ fn lookup_stages(
 ) -> Result<Estimate> {
     let mask = cap.mask.clone();
     mask.check_not_empty("target mask")?;
-    let (w, h) = (mask.width, mask.height);
     stages::note_split(table, opts, st.progress());
     let lookup = lut::Lookup::new(std::slice::from_ref(table), &opts.lookup)?;
     let mut sampler = NoiseSampler::new(&mask, cap.ds.header.k());
-    let (buf, step) = preview;
-    let mut est = st.run("lookup", |p| {
-        let mut normals = NormalMap::filled(w, h, [0.0; 3]);
-        let mut confidence = GrayImage::filled(w, h, 0.0);
-        let mut albedo: Option<GrayImage> = None;
-        cap.pass(
-            "lookup",
-            p,
-            |_, _| true,
-            |band, r0| {
-                sampler.feed(band, r0);
-                decimate(buf, band, r0, step);
-                let bm = rows_of(&mask, r0, band.height);
-                if bm.count() == 0 {
-                    return Ok(());
-                }
-                let out = lookup.solve(band, &bm, &NoProgress)?;
-                put_rows(&mut normals, &out.normals, r0);
-                put_rows(&mut confidence, &out.confidence, r0);
-                if let Some(a) = &out.albedo {
-                    let all = albedo.get_or_insert_with(|| GrayImage::filled(w, h, 0.0));
-                    put_rows(all, a, r0);
-                }
-                Ok(())
-            },
-        )?;
-        Ok(Estimate {
-            normals,
-            albedo,
-            confidence: Some(confidence),
-            depth: None,
-            spatial: None,
-        })
+    let est = st.run("lookup", |p| {
+        lookup_pass(cap, &lookup, &mask, &mut sampler, preview, p)
     })?;
     drop(lookup);
     st.run(super::spatial_stage::name(opts), |p| {
-        let (noise, censor) = sampler.finish_with_censor();
-        let model = (&noise, &censor);
-        // taken out of the estimate while the stage borrows both (no second copy)
-        let albedo = est.albedo.take();
-        let info = match &opts.spatial {
-            None => {
-                let level = opts.lookup.shadow_level;
-                let tp = (table, model, level);
-                let ev = evidence(cap, tp, (&est.normals, albedo.as_ref()), None, p)?;
-                own_only(noise, ev.sigma_deg(&mask))
-            }
-            Some(sp_opts) => {
-                let tp = (table, model, sp_opts.shadow_level);
-                let ev = evidence(cap, tp, (&est.normals, albedo.as_ref()), None, p)?;
-                let (mut sp, ev) =
-                    spatial::solve_relinearised(ev, &mask, sp_opts, |normals, far, ev| {
-                        let only = Some((far, ev));
-                        evidence(cap, tp, (normals, albedo.as_ref()), only, p).map(|_| ())
-                    })?;
-                let matches = (&ev, &est.normals);
-                spatial::keep_own_where_rejected(
-                    &mut sp,
-                    matches,
-                    &mask,
-                    &noise,
-                    sp_opts,
-                    |s, m| {
-                        let pair = (&est.normals, s);
-                        own_cost_rise(cap, tp, (pair, albedo.as_ref()), m, p)
-                    },
-                )?;
-                drop(ev);
-                adopt(&mut est, noise, sp)
-            }
-        };
-        est.albedo = albedo;
-        est.spatial = Some(info);
-        Ok(est)
+        spatial_pass(cap, table, opts, &mask, sampler, est, p)
     })
+}
+
+/// The lookup band by band into H×W maps; each band also feeds the noise `sampler` and
+/// the report's decimated `preview`.
+fn lookup_pass(
+    cap: &mut Capture,
+    lookup: &lut::Lookup,
+    mask: &Mask,
+    sampler: &mut NoiseSampler,
+    preview: (&mut Vec<f32>, usize),
+    p: &dyn Progress,
+) -> Result<Estimate> {
+    let (w, h) = (mask.width, mask.height);
+    let (buf, step) = preview;
+    let mut normals = NormalMap::filled(w, h, [0.0; 3]);
+    let mut confidence = GrayImage::filled(w, h, 0.0);
+    let mut albedo: Option<GrayImage> = None;
+    cap.pass(
+        "lookup",
+        p,
+        |_, _| true,
+        |band, r0| {
+            sampler.feed(band, r0);
+            decimate(buf, band, r0, step);
+            let bm = rows_of(mask, r0, band.height);
+            if bm.count() == 0 {
+                return Ok(());
+            }
+            let out = lookup.solve(band, &bm, &NoProgress)?;
+            put_rows(&mut normals, &out.normals, r0);
+            put_rows(&mut confidence, &out.confidence, r0);
+            if let Some(a) = &out.albedo {
+                let all = albedo.get_or_insert_with(|| GrayImage::filled(w, h, 0.0));
+                put_rows(all, a, r0);
+            }
+            Ok(())
+        },
+    )?;
+    Ok(Estimate {
+        normals,
+        albedo,
+        confidence: Some(confidence),
+        depth: None,
+        spatial: None,
+    })
+}
+
+/// The spatial stage (or the pixels' own uncertainty without it) on the lookup's
+/// estimate, with the noise and censoring measured by `sampler`; evidence is re-read by
+/// bands.
+fn spatial_pass(
+    cap: &mut Capture,
+    table: &lut::Table,
+    opts: &Options,
+    mask: &Mask,
+    sampler: NoiseSampler,
+    mut est: Estimate,
+    p: &dyn Progress,
+) -> Result<Estimate> {
+    let (noise, censor) = sampler.finish_with_censor();
+    let model = (&noise, &censor);
+    // taken out of the estimate while the stage borrows both (no second copy)
+    let albedo = est.albedo.take();
+    let info = match &opts.spatial {
+        None => {
+            let level = opts.lookup.shadow_level;
+            let tp = (table, model, level);
+            let ev = evidence(cap, tp, (&est.normals, albedo.as_ref()), None, p)?;
+            own_only(noise, ev.sigma_deg(mask))
+        }
+        Some(sp_opts) => {
+            let tp = (table, model, sp_opts.shadow_level);
+            let ev = evidence(cap, tp, (&est.normals, albedo.as_ref()), None, p)?;
+            let (mut sp, ev) =
+                spatial::solve_relinearised(ev, mask, sp_opts, |normals, far, ev| {
+                    let only = Some((far, ev));
+                    evidence(cap, tp, (normals, albedo.as_ref()), only, p).map(|_| ())
+                })?;
+            let matches = (&ev, &est.normals);
+            spatial::keep_own_where_rejected(&mut sp, matches, mask, &noise, sp_opts, |s, m| {
+                let pair = (&est.normals, s);
+                own_cost_rise(cap, tp, (pair, albedo.as_ref()), m, p)
+            })?;
+            drop(ev);
+            adopt(&mut est, noise, sp)
+        }
+    };
+    est.albedo = albedo;
+    est.spatial = Some(info);
+    Ok(est)
 }
 
 /// The evidence of the lookup's matches ([`spatial::info::from_table`]) by bands; or,
