@@ -15,12 +15,14 @@
 use std::path::Path;
 use std::time::Instant;
 
-use super::load::{check, leave_out_sphere, lights, radiance_scale, scale_is_known, subtitle};
+use super::load::{
+    check, leave_out_sphere, normals_of, radiance_scale, scale_is_known, subtitle, Source,
+};
 use super::spatial_stage::{adopt, own_only, SpatialInfo};
 use super::stages;
 use super::timer::Stages;
 use super::{Estimate, Figure, Inputs, Job, Normals, Options, Run, Titles, Truth};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::image::{GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
 use crate::io::{self, DatasetBands};
 use crate::progress::{NoProgress, Progress};
@@ -28,7 +30,7 @@ use crate::spatial::{self, info::Evidence, Censor, NoiseModel, NoiseSampler};
 
 /// The sensor's evidence model: the noise and the censoring bounds of the capture.
 type Model<'a> = (&'a NoiseModel, &'a Censor);
-use crate::warning::{Warning, WarningCode};
+use crate::warning::Warning;
 use crate::{lambertian, lut, plan};
 
 /// Longest side of the decimated copy of the images kept for the report's thumbnails.
@@ -139,15 +141,14 @@ pub(super) fn run(
     let (load_opts, others) = inputs.load_options();
     let ds = io::open_dataset_bands(&inputs.target, &load_opts)?;
     let (w, h) = (ds.header.width, ds.header.height);
-    let sphere = match &inputs.sphere {
-        Some(dir) => Some((dir, io::open_dataset_bands(dir, &others)?)),
-        None => None,
+    // the sphere's stack, its decoding and its table (its folder is only opened here)
+    let extra = match &inputs.sphere {
+        Some(dir) => {
+            let s = io::open_dataset_bands(dir, &others)?;
+            (s.header.width * s.header.height * s.header.k() * 4 * 3) as u64
+        }
+        None => 0,
     };
-    let extra = sphere.as_ref().map_or(0, |(_, s)| {
-        let (sw, sh, sk) = (s.header.width, s.header.height, s.header.k());
-        // the sphere's stack, its decoding and its table
-        (sw * sh * sk * 4 * 3) as u64
-    });
     let budget = opts
         .memory
         .unwrap_or_else(|| plan::default_budget(io::system_memory()));
@@ -159,7 +160,14 @@ pub(super) fn run(
         .into_iter()
         .collect();
     let mut stages = Vec::new();
-    let (normals, chrome) = normals_of(inputs, &ds, sphere, progress, &mut stages, &mut warnings)?;
+    let names = file_names(&ds);
+    let source = Source {
+        k: ds.header.k(),
+        lights: ds.lights.clone(),
+        names: &names,
+        others: &others,
+    };
+    let (normals, chrome) = normals_of(inputs, &source, progress, &mut stages, &mut warnings)?;
     stages.insert(0, ("load".to_string(), t0.elapsed().as_secs_f64()));
     let mut cap = Capture {
         ds,
@@ -215,46 +223,6 @@ fn image_scale(inputs: &Inputs) -> Result<Option<(f32, &'static str)>> {
         _ => "not given: images taken as radiance units",
     };
     Ok(Some((scale, from)))
-}
-
-/// How the run gets its normals: a calibration given, the sphere's table (its folder
-/// loaded whole: it must have the target's K images) or the light directions (timed as
-/// the `lights` stage; a chrome sphere's detection is returned for the report).
-fn normals_of(
-    inputs: &Inputs,
-    ds: &DatasetBands,
-    sphere: Option<(&std::path::PathBuf, DatasetBands)>,
-    progress: &dyn Progress,
-    stages: &mut Vec<(String, f64)>,
-    warnings: &mut Vec<Warning>,
-) -> Result<(Normals, Option<crate::sphere::Detection>)> {
-    let k = ds.header.k();
-    Ok(match (&inputs.calibration, sphere) {
-        (Some(cal), _) => (Normals::Calibrated(Box::new(cal.clone())), None),
-        (None, Some((dir, _))) => {
-            let sp = io::load_dataset(dir, &io::LoadOptions::default())?;
-            if sp.stack.k != k {
-                return Err(k_mismatch(dir, sp.stack.k, &inputs.target, k));
-            }
-            let normals = Normals::Lookup {
-                sphere: sp.stack,
-                sphere_mask: sp.mask,
-            };
-            (normals, None)
-        }
-        (None, None) => {
-            let t = Instant::now();
-            let (lights, det) = lights(inputs, ds.lights.clone(), &file_names(ds), progress)?;
-            let mut chrome = None;
-            if let Some((det, mirror)) = det {
-                let code = WarningCode::NotAMirror;
-                warnings.extend(mirror.warning().map(|m| Warning::new(code, m)));
-                chrome = Some(det);
-            }
-            stages.push(("lights".to_string(), t.elapsed().as_secs_f64()));
-            (Normals::Lambertian { lights }, chrome)
-        }
-    })
 }
 
 /// The pipeline on the capture: normals by bands, then [`super::finish`] with the ground
@@ -605,19 +573,6 @@ fn lambertian_stages(
         Ok(est)
     })
 }
-
-fn k_mismatch(dir: &Path, sk: usize, target: &Path, k: usize) -> Error {
-    Error::invalid(
-        format!(
-            "the sphere {} has {sk} images, the target {} has {k}",
-            dir.display(),
-            target.display(),
-        ),
-        "image the sphere under the same lights as the target: one image per light, in \
-         the same order (filenames.txt sets the order)",
-    )
-}
-
 /// The images' file names (as [`ImageStack::names`]), in light order: what a light file
 /// naming its images (`.lp`) is matched against.
 fn file_names(ds: &DatasetBands) -> Vec<String> {

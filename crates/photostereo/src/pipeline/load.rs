@@ -118,43 +118,16 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         .mask
         .clone()
         .unwrap_or_else(|| Mask::full(target.stack.width, target.stack.height));
-    let (mut chrome, mut warnings) = (None, Vec::new());
-    warnings.extend(leave_out_sphere(inputs, opts, &mut mask)?);
-    let normals = if let Some(cal) = &inputs.calibration {
-        Normals::Calibrated(Box::new(cal.clone()))
-    } else if let Some(dir) = &inputs.sphere {
-        let sphere = io::load_dataset(dir, &others)?;
-        if sphere.stack.k != target.stack.k {
-            return Err(Error::invalid(
-                format!(
-                    "the sphere {} has {} images, the target {} has {}",
-                    dir.display(),
-                    sphere.stack.k,
-                    inputs.target.display(),
-                    target.stack.k
-                ),
-                "image the sphere under the same lights as the target: one image per light, in \
-                 the same order (filenames.txt sets the order)",
-            ));
-        }
-        Normals::Lookup {
-            sphere: sphere.stack,
-            sphere_mask: sphere.mask,
-        }
-    } else {
-        let t = Instant::now();
-        let (lights, det) = lights(inputs, target.lights.clone(), &target.stack.names, progress)?;
-        if let Some((det, mirror)) = det {
-            warnings.extend(
-                mirror
-                    .warning()
-                    .map(|m| Warning::new(WarningCode::NotAMirror, m)),
-            );
-            chrome = Some(det);
-        }
-        stages.push(("lights".to_string(), t.elapsed().as_secs_f64()));
-        Normals::Lambertian { lights }
+    let mut warnings: Vec<Warning> = leave_out_sphere(inputs, opts, &mut mask)?
+        .into_iter()
+        .collect();
+    let source = Source {
+        k: target.stack.k,
+        lights: target.lights.clone(),
+        names: &target.stack.names,
+        others: &others,
     };
+    let (normals, chrome) = normals_of(inputs, &source, progress, &mut stages, &mut warnings)?;
     let response = target.response;
     let (tn, td) = io::read_ground_truth(&inputs.target)?;
     let job = Job {
@@ -180,6 +153,65 @@ pub fn load(inputs: &Inputs, opts: &Options, progress: &dyn Progress) -> Result<
         warnings,
         response,
     })
+}
+
+/// What [`normals_of`] needs of the target: its number of images, its own light
+/// directions and image file names, and how the other folders are read.
+pub(super) struct Source<'a> {
+    pub k: usize,
+    pub lights: Option<Lights>,
+    pub names: &'a [String],
+    pub others: &'a io::LoadOptions,
+}
+
+/// How a run gets its normals: a calibration given, the sphere's table (its folder loaded
+/// whole with `source.others`: it must have the target's K images) or the light
+/// directions (timed as the `lights` stage, pushed on `stages`; a chrome sphere's
+/// detection is returned for the report, its mirror check's warning pushed on `warnings`).
+pub(super) fn normals_of(
+    inputs: &Inputs,
+    source: &Source<'_>,
+    progress: &dyn Progress,
+    stages: &mut Vec<(String, f64)>,
+    warnings: &mut Vec<Warning>,
+) -> Result<(Normals, Option<sphere::Detection>)> {
+    if let Some(cal) = &inputs.calibration {
+        return Ok((Normals::Calibrated(Box::new(cal.clone())), None));
+    }
+    if let Some(dir) = &inputs.sphere {
+        let sphere = io::load_dataset(dir, source.others)?;
+        if sphere.stack.k != source.k {
+            return Err(k_mismatch(dir, sphere.stack.k, &inputs.target, source.k));
+        }
+        let normals = Normals::Lookup {
+            sphere: sphere.stack,
+            sphere_mask: sphere.mask,
+        };
+        return Ok((normals, None));
+    }
+    let t = Instant::now();
+    let (lights, det) = lights(inputs, source.lights.clone(), source.names, progress)?;
+    let mut chrome = None;
+    if let Some((det, mirror)) = det {
+        let code = WarningCode::NotAMirror;
+        warnings.extend(mirror.warning().map(|m| Warning::new(code, m)));
+        chrome = Some(det);
+    }
+    stages.push(("lights".to_string(), t.elapsed().as_secs_f64()));
+    Ok((Normals::Lambertian { lights }, chrome))
+}
+
+/// The sphere folder `dir` has `sk` images where the target has `k`.
+fn k_mismatch(dir: &Path, sk: usize, target: &Path, k: usize) -> Error {
+    Error::invalid(
+        format!(
+            "the sphere {} has {sk} images, the target {} has {k}",
+            dir.display(),
+            target.display(),
+        ),
+        "image the sphere under the same lights as the target: one image per light, in \
+         the same order (filenames.txt sets the order)",
+    )
 }
 
 /// Margin (pixels) around a given circle inside which target pixels count as the
