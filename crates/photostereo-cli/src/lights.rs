@@ -6,7 +6,7 @@ use anyhow::Context;
 use photostereo::io;
 use photostereo::lightcal::{self, ChromeOptions, MatteOptions};
 use photostereo::sphere::{self, Circle, DetectOptions, Detection};
-use photostereo::{Lights, Mask};
+use photostereo::{ImageStack, Lights, Mask};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `photostereo lights`.
@@ -83,29 +83,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     }
     // --chrome is the default; it only documents the choice
     let matte = args.matte && !args.chrome;
-    let lights = if matte {
-        let opts = MatteOptions {
-            rim_px: args.rim.unwrap_or(MatteOptions::default().rim_px),
-            ..MatteOptions::default()
-        };
-        lightcal::from_matte_sphere(&data.stack, &c, &opts)?
-    } else {
-        let opts = ChromeOptions {
-            rim_px: args.rim.unwrap_or(ChromeOptions::default().rim_px),
-            ..ChromeOptions::default()
-        };
-        let (lights, highlights) = lightcal::from_chrome_sphere(&data.stack, &c, &opts)?;
-        if let Some(w) = sphere::checks::check_mirror(&data.stack, &c).warning() {
-            eprintln!("warning: {w} (`lights --matte` for a matte sphere)");
-        }
-        for (name, h) in data.stack.names.iter().zip(&highlights) {
-            say(format!(
-                "  {name}: highlight at ({:.2}, {:.2}), {} px, peak {:.3}",
-                h.x, h.y, h.pixels, h.peak
-            ));
-        }
-        lights
-    };
+    let lights = calibrate_lights(&data.stack, &c, matte, &args, &say)?;
     say(table(&data.stack.names, &lights));
     // everything is computed before the first file is written
     let png = sphere::encode_png(&sphere::overlay(&det.max_image, &c))?;
@@ -131,6 +109,40 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         overlay_path.display()
     ));
     Ok(())
+}
+
+/// The light directions from a matte sphere's shading (`matte`) or a chrome sphere's
+/// highlights (with its mirror check, and each image's highlight printed).
+fn calibrate_lights(
+    stack: &ImageStack,
+    c: &Circle,
+    matte: bool,
+    args: &Args,
+    say: &dyn Fn(String),
+) -> anyhow::Result<Lights> {
+    Ok(if matte {
+        let opts = MatteOptions {
+            rim_px: args.rim.unwrap_or(MatteOptions::default().rim_px),
+            ..MatteOptions::default()
+        };
+        lightcal::from_matte_sphere(stack, c, &opts)?
+    } else {
+        let opts = ChromeOptions {
+            rim_px: args.rim.unwrap_or(ChromeOptions::default().rim_px),
+            ..ChromeOptions::default()
+        };
+        let (lights, highlights) = lightcal::from_chrome_sphere(stack, c, &opts)?;
+        if let Some(w) = sphere::checks::check_mirror(stack, c).warning() {
+            eprintln!("warning: {w} (`lights --matte` for a matte sphere)");
+        }
+        for (name, h) in stack.names.iter().zip(&highlights) {
+            say(format!(
+                "  {name}: highlight at ({:.2}, {:.2}), {} px, peak {:.3}",
+                h.x, h.y, h.pixels, h.peak
+            ));
+        }
+        lights
+    })
 }
 
 /// The circle: given, detected in the images, or fitted to the mask's outline when the
