@@ -354,38 +354,9 @@ impl Crop {
         mask: Option<&Mask>,
         win: (usize, usize, usize, usize),
     ) -> Result<Self> {
-        let (x0, y0, width, height) = win;
-        let mut values = Vec::with_capacity(width * height);
-        let mut keep = Vec::with_capacity(width * height);
-        for r in y0..y0 + height {
-            for c in x0..x0 + width {
-                let v = *max_image.get(r, c);
-                keep.push(v.is_finite() && mask.is_none_or(|m| *m.get(r, c)));
-                values.push(v);
-            }
-        }
-        let kept = || {
-            values
-                .iter()
-                .zip(&keep)
-                .filter(|(_, &k)| k)
-                .map(|(v, _)| *v)
-        };
-        if kept().next().is_none() {
-            // the search window and the search mask do not overlap (e.g. a target's mask
-            // taken for the sphere's): nothing to search
-            return Err(not_found(
-                "no pixel is left to search: the search window and the search mask do not overlap"
-                    .to_string(),
-            ));
-        }
-        let lo = kept().fold(f32::INFINITY, f32::min);
-        let hi = kept().fold(f32::NEG_INFINITY, f32::max);
-        if hi.is_nan() || lo.is_nan() || hi - lo <= 1e-6 * hi.abs().max(1e-3) {
-            return Err(not_found(format!(
-                "the maximum image is uniform (values {lo} to {hi})"
-            )));
-        }
+        let (_, _, width, height) = win;
+        let (mut values, keep) = window_values(max_image, mask, win);
+        let (lo, hi) = searched_range(&values, &keep)?;
         // the mask only says where to search: edge profiles are sampled on the raw
         // values (non-finite ones replaced)
         let raw: Vec<f32> = values
@@ -457,4 +428,45 @@ impl Crop {
         }
         Ok(points)
     }
+}
+
+/// The maximum image's values in the window `win` (x0, y0, width, height), row by row,
+/// and whether each is searched (finite and inside `mask`).
+fn window_values(
+    max_image: &GrayImage,
+    mask: Option<&Mask>,
+    (x0, y0, width, height): (usize, usize, usize, usize),
+) -> (Vec<f32>, Vec<bool>) {
+    let mut values = Vec::with_capacity(width * height);
+    let mut keep = Vec::with_capacity(width * height);
+    for r in y0..y0 + height {
+        for c in x0..x0 + width {
+            let v = *max_image.get(r, c);
+            keep.push(v.is_finite() && mask.is_none_or(|m| *m.get(r, c)));
+            values.push(v);
+        }
+    }
+    (values, keep)
+}
+
+/// The lowest and highest searched value; an error when nothing is searched or the
+/// searched values are uniform.
+fn searched_range(values: &[f32], keep: &[bool]) -> Result<(f32, f32)> {
+    let kept = || values.iter().zip(keep).filter(|(_, &k)| k).map(|(v, _)| *v);
+    if kept().next().is_none() {
+        // the search window and the search mask do not overlap (e.g. a target's mask
+        // taken for the sphere's): nothing to search
+        return Err(not_found(
+            "no pixel is left to search: the search window and the search mask do not overlap"
+                .to_string(),
+        ));
+    }
+    let lo = kept().fold(f32::INFINITY, f32::min);
+    let hi = kept().fold(f32::NEG_INFINITY, f32::max);
+    if hi.is_nan() || lo.is_nan() || hi - lo <= 1e-6 * hi.abs().max(1e-3) {
+        return Err(not_found(format!(
+            "the maximum image is uniform (values {lo} to {hi})"
+        )));
+    }
+    Ok((lo, hi))
 }
