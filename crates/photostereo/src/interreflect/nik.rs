@@ -281,19 +281,7 @@ pub fn iterate(
     progress.finish();
     let (best, convergence) = match convergence {
         Some(c @ Convergence::Converged { at }) => (at, c),
-        _ => {
-            // Rate the last iterate too (one more compensation), then pick the best.
-            if let Some(last) = iterations.last_mut() {
-                if opts.max_iter > 0 {
-                    let next =
-                        compensate_and_reconstruct(raw, mask, &last.shape, opts, reconstruct)?;
-                    last.fit_residual = next.residual;
-                }
-            }
-            let changes: Vec<f32> = iterations.iter().map(|i| i.relative_change).collect();
-            let residuals: Vec<f32> = iterations.iter().map(|i| i.fit_residual).collect();
-            choose_best(&changes, &residuals)
-        }
+        _ => rate_and_choose(raw, mask, &mut iterations, opts, reconstruct)?,
     };
     Ok(NikOutput {
         iterations,
@@ -303,6 +291,26 @@ pub fn iterate(
         tol: opts.tol,
         scale_known: opts.scale_known,
     })
+}
+
+/// Without convergence: rate the last iterate too (one more compensation gives its fit
+/// residual), then pick the best iterate by [`choose_best`].
+fn rate_and_choose(
+    raw: &ImageStack,
+    mask: &Mask,
+    iterations: &mut [Iterate],
+    opts: &NikOptions,
+    reconstruct: &dyn Fn(&ImageStack) -> Result<Reconstruction>,
+) -> Result<(usize, Convergence)> {
+    if let Some(last) = iterations.last_mut() {
+        if opts.max_iter > 0 {
+            let next = compensate_and_reconstruct(raw, mask, &last.shape, opts, reconstruct)?;
+            last.fit_residual = next.residual;
+        }
+    }
+    let changes: Vec<f32> = iterations.iter().map(|i| i.relative_change).collect();
+    let residuals: Vec<f32> = iterations.iter().map(|i| i.fit_residual).collect();
+    Ok(choose_best(&changes, &residuals))
 }
 
 /// Compensate `raw` with the kernel and albedo of `shape`, then reconstruct.
