@@ -314,29 +314,15 @@ fn finish(
     let has_truth = job.truth.normals.is_some()
         || job.truth.depth.is_some()
         || truth_dir.is_some_and(crate::io::has_ground_truth);
-    let auto = opts.method.is_none();
-    let (depth, cuts, method, why) = match est.depth.clone() {
-        Some(d) => (d, None, method, None),
-        None => {
-            let (out, why) = st.run("integration", |p| {
-                stages::integrate_auto(&est, &job.mask, method, auto, p)
-            })?;
-            (out.depth, out.discontinuities, out.method, why)
-        }
-    };
+    let (depth, cuts, method, why) = depth_stage(&mut st, job, opts, method, &est)?;
     let mesh = st.run("mesh", |_| {
         let mo = mesh::MeshOptions {
             cuts: cuts.as_ref(),
             max_faces: opts.mesh_max_faces,
             ..Default::default()
         };
-        mesh::from_depth_with(
-            &depth,
-            &job.mask,
-            Some(&est.normals),
-            est.albedo.as_ref(),
-            &mo,
-        )
+        let albedo = est.albedo.as_ref();
+        mesh::from_depth_with(&depth, &job.mask, Some(&est.normals), albedo, &mo)
     })?;
     let curv = match &opts.curvature {
         Some(co) => Some(st.run("curvature", |_| {
@@ -384,6 +370,31 @@ fn finish(
         chrome: None,
         curvature: curv,
     })
+}
+
+/// The depth of the estimate: its own (interreflection removal made one), or the
+/// integration stage's with the integrator `method` (or the automatic choice when the
+/// options name none); also the cuts, the integrator used and why it changed.
+fn depth_stage(
+    st: &mut timer::Stages,
+    job: &Job,
+    opts: &Options,
+    method: integrate::Method,
+    est: &Estimate,
+) -> Result<(
+    DepthMap,
+    Option<integrate::Discontinuities>,
+    integrate::Method,
+    Option<String>,
+)> {
+    if let Some(d) = est.depth.clone() {
+        return Ok((d, None, method, None));
+    }
+    let auto = opts.method.is_none();
+    let (out, why) = st.run("integration", |p| {
+        stages::integrate_auto(est, &job.mask, method, auto, p)
+    })?;
+    Ok((out.depth, out.discontinuities, out.method, why))
 }
 
 /// Accuracy against the job's ground truth, or with `truth_dir` against that folder's
