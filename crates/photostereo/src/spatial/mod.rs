@@ -409,6 +409,47 @@ pub fn mean_in(img: &GrayImage, mask: &Mask) -> f64 {
     sum / n.max(1) as f64
 }
 
+/// The occluding-contour prior of each mask-edge pixel (index, its quadratic's
+/// matrix terms, its linear terms); none without `opts.contour_sigma`.
+fn contour_priors(mask: &Mask, opts: &Options) -> Vec<(usize, [f32; 3], [f32; 2])> {
+    match opts.contour_sigma {
+        Some(sc) => contour::contour_normals(mask)
+            .into_iter()
+            .map(|(i, u)| {
+                let (da, db) = contour::prior(u, sc);
+                (i, da, db)
+            })
+            .collect(),
+        None => Vec::new(),
+    }
+}
+
+/// Solve from the coarsest level down to `fine`, each level started from the one
+/// below; returns the solution, the number of levels and the iterations.
+fn coarse_to_fine(fine: &Level, opts: &Options) -> (Vec<[f32; 2]>, usize, usize) {
+    let mut coarse: Vec<Level> = Vec::new();
+    loop {
+        let last = coarse.last().unwrap_or(fine);
+        if !solve::has_coarser(last.w, last.h) {
+            break;
+        }
+        let next = last.coarser();
+        coarse.push(next);
+    }
+    let count = coarse.len() + 1;
+    let coarsest = coarse.last().unwrap_or(fine);
+    let mut x = coarsest.own();
+    let mut iterations = coarsest.solve(&mut x, solve::coarse_iterations());
+    while let Some(c) = coarse.pop() {
+        // the coarser levels are dropped as soon as they have started the next one
+        let next = coarse.last().unwrap_or(fine);
+        x = next.start_from(&c, &x);
+        drop(c);
+        iterations += next.solve(&mut x, opts.iterations);
+    }
+    (x, count, iterations)
+}
+
 /// Solve the quadratic problem of the evidence `ev` (its matches' quadratics, plus its
 /// gradient where it has one); returns the solution per mask pixel (row-major order),
 /// the finest level, the number of levels and the iterations.
@@ -443,16 +484,7 @@ fn quadratic(
         let after = j + step < n && m[j + step] && !jumps(j, j + step);
         !(before && after)
     };
-    let contour: Vec<(usize, [f32; 3], [f32; 2])> = match opts.contour_sigma {
-        Some(sc) => contour::contour_normals(mask)
-            .into_iter()
-            .map(|(i, u)| {
-                let (da, db) = contour::prior(u, sc);
-                (i, da, db)
-            })
-            .collect(),
-        None => Vec::new(),
-    };
+    let contour = contour_priors(mask, opts);
     let fields = (&ev.a[..], &ev.u[..], &ev.g[..]);
     let prior = (lambda, |i: usize| scale.as_ref().map_or(1.0, |s| s.at(i)));
     let fine = Level::finest((w, h), m, fields, &contour, prior, pair_ok);
@@ -462,26 +494,7 @@ fn quadratic(
         let its = fine.solve(&mut x, opts.iterations);
         return (x, fine, 1, its);
     }
-    let mut coarse: Vec<Level> = Vec::new();
-    loop {
-        let last = coarse.last().unwrap_or(&fine);
-        if !solve::has_coarser(last.w, last.h) {
-            break;
-        }
-        let next = last.coarser();
-        coarse.push(next);
-    }
-    let count = coarse.len() + 1;
-    let coarsest = coarse.last().unwrap_or(&fine);
-    let mut x = coarsest.own();
-    let mut iterations = coarsest.solve(&mut x, solve::coarse_iterations());
-    while let Some(c) = coarse.pop() {
-        // the coarser levels are dropped as soon as they have started the next one
-        let next = coarse.last().unwrap_or(&fine);
-        x = next.start_from(&c, &x);
-        drop(c);
-        iterations += next.solve(&mut x, opts.iterations);
-    }
+    let (x, count, iterations) = coarse_to_fine(&fine, opts);
     crate::io::memtrace::mark("spatial: coarse to fine solved");
     (x, fine, count, iterations)
 }
