@@ -175,7 +175,22 @@ fn contrast_fallback(
     opts: &DetectOptions,
     win: (usize, usize, usize, usize),
 ) -> std::result::Result<Detection, String> {
-    let fit = detect_contrast(stack, mask, win, opts)?;
+    let (mean, keep) = window_mean(stack, mask, win);
+    let fit = match detect_contrast(&mean, mask.map(|_| &keep[..]), win, 0.0, opts) {
+        Ok(fit) => fit,
+        Err(why) => {
+            // a camera's black level lifts the background, and the log stretch then
+            // hides a dim rim (a rough metal's): try again with the background's level
+            // taken off (its low percentile; 0 without a black level)
+            let floor = background_level(&mean, &keep);
+            if floor <= 0.0 {
+                return Err(why);
+            }
+            detect_contrast(&mean, mask.map(|_| &keep[..]), win, floor, opts).map_err(|again| {
+                format!("{why}; with the background level {floor:.4} taken off: {again}")
+            })?
+        }
+    };
     Ok(Detection {
         circle: fit.circle,
         rms_residual_px: fit.rms_residual_px,
@@ -186,6 +201,47 @@ fn contrast_fallback(
         fitted_on: "edge points",
         max_image: stack.max_image(),
     })
+}
+
+/// Percentile of the searched mean values taken as the background's level (the
+/// corners of a window around the sphere are about a fifth of it).
+const BACKGROUND_PERCENTILE: f64 = 0.02;
+
+/// The mean over the K images in the window `win` (row-major; non-finite samples count
+/// as 0) and whether each pixel is searched (inside `mask`).
+fn window_mean(
+    stack: &ImageStack,
+    mask: Option<&Mask>,
+    (x0, y0, w, h): (usize, usize, usize, usize),
+) -> (Vec<f32>, Vec<bool>) {
+    let mut mean = Vec::with_capacity(w * h);
+    let mut keep = Vec::with_capacity(w * h);
+    for r in y0..y0 + h {
+        for c in x0..x0 + w {
+            let px = stack.pixel(r, c);
+            let m = px.iter().filter(|v| v.is_finite()).sum::<f32>() / stack.k as f32;
+            mean.push(m);
+            keep.push(mask.is_none_or(|m| *m.get(r, c)));
+        }
+    }
+    (mean, keep)
+}
+
+/// The background's level in the mean image: the [`BACKGROUND_PERCENTILE`] of its
+/// searched values (0 when none is positive).
+fn background_level(mean: &[f32], keep: &[bool]) -> f32 {
+    let mut v: Vec<f32> = mean
+        .iter()
+        .zip(keep)
+        .filter(|(m, &k)| k && m.is_finite())
+        .map(|(m, _)| *m)
+        .collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    let i = ((v.len() - 1) as f64 * BACKGROUND_PERCENTILE) as usize;
+    let (_, p, _) = v.select_nth_unstable_by(i, f32::total_cmp);
+    p.max(0.0)
 }
 
 /// Steps 2–5 of the module docs on `image` (the maximum image or a mask outline).
@@ -231,32 +287,31 @@ fn detect_blob(
     })
 }
 
-/// The contrast-edge detection ([`contrast`]) in the window; the reason as text when
-/// no circle covers enough of its rim.
+/// The contrast-edge detection ([`contrast`]) on the window's `mean` image (`keep`: the
+/// searched pixels, with a mask), stretched after `floor` (the background's level, or
+/// 0) is taken off; the reason as text when no circle covers enough of its rim.
 fn detect_contrast(
-    stack: &ImageStack,
-    mask: Option<&Mask>,
+    mean: &[f32],
+    keep: Option<&[bool]>,
     win: (usize, usize, usize, usize),
+    floor: f32,
     opts: &DetectOptions,
 ) -> std::result::Result<contrast::ContrastFit, String> {
     let (x0, y0, w, h) = win;
-    let mut mean = Vec::with_capacity(w * h);
-    let mut keep = Vec::with_capacity(w * h);
-    for r in y0..y0 + h {
-        for c in x0..x0 + w {
-            let px = stack.pixel(r, c);
-            let m = px.iter().filter(|v| v.is_finite()).sum::<f32>() / stack.k as f32;
-            mean.push(m);
-            keep.push(mask.is_none_or(|m| *m.get(r, c)));
-        }
-    }
-    let log = contrast::log_mean(&mean, w, h);
+    let lifted;
+    let stretched = if floor > 0.0 {
+        lifted = mean.iter().map(|&m| m - floor).collect::<Vec<f32>>();
+        &lifted[..]
+    } else {
+        mean
+    };
+    let log = contrast::log_mean(stretched, w, h);
     let view = edges::View {
         width: w,
         height: h,
         data: &log,
     };
-    let points = contrast::edge_points(&view, mask.map(|_| &keep[..]));
+    let points = contrast::edge_points(&view, keep);
     let iterations = 20 * opts.ransac_iterations;
     let Some(fit) = contrast::fit_contrast(&points, w, h, iterations, opts.inlier_tol_px) else {
         return Err(format!("no circle through {} edge points", points.len()));
@@ -264,7 +319,7 @@ fn detect_contrast(
     let linear = edges::View {
         width: w,
         height: h,
-        data: &mean,
+        data: mean,
     };
     let Some(mut fit) = contrast::relocate(&points, &fit, &linear, opts.inlier_tol_px) else {
         return Err("the rim's edge points could not be located".to_string());

@@ -29,7 +29,11 @@
 //!    pixels are its highlights — the circle is fitted to edge points of the
 //!    log-stretched *mean* image wherever the rim contrasts with what lies behind it,
 //!    by RANSAC scoring the fraction of the rim covered; accepted when at least
-//!    [`DetectOptions::min_rim_coverage`] of the rim shows.
+//!    [`DetectOptions::min_rim_coverage`] of the rim shows. When none does, it is tried
+//!    once more with the background's level (2nd percentile of the window's mean) taken
+//!    off before the stretch: a camera's black level lifts the background, and the
+//!    stretch then leaves a dim rim (a rough metal's, a few grey levels above it in 8
+//!    bits) without contrast.
 //!
 //! 7. **The rim model** (module `rim`, [`DetectOptions::rim_model`], on by default):
 //!    the circle of steps 3–6 is refined by fitting the image near the rim with a
