@@ -1,5 +1,5 @@
 //! Pictures for people: maps turned into 8-bit RGB, and the crate's one PNG encoder
-//! ([`png_bytes`]: the report's pictures, the sphere overlay, the plots and the PNG
+//! (`png_bytes`: the report's pictures, the sphere overlay, the plots and the PNG
 //! files of [`crate::io`]).
 //!
 //! * normals: c = (n + 1)/2 per channel (the README's convention), unknown pixels grey;

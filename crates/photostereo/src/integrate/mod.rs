@@ -293,7 +293,7 @@ pub fn choose_method(mask: &Mask) -> Method {
 
 /// Edges inside the mask across which an orthographic depth map jumps: the step
 /// z_j − z_i disagrees with the gradients of both ends by more than
-/// [`bilateral::CUT`] once scaled by their n_z (BiNI's own test for a discontinuity,
+/// `bilateral::CUT` (1 px) once scaled by their n_z (BiNI's own test for a discontinuity,
 /// |n_z (Δz − g)| > 1 px at both ends). Least squares smears a depth jump over a few
 /// pixels but leaves such edges along it; on a smooth surface with noisy normals there
 /// are almost none. With a `trust` map ([`trust_weights`]) only edges between pixels

@@ -115,7 +115,7 @@
 //! and one [`solve`] call 13–21× (median 17.1×); issue 10 asks for 18× (README,
 //! "Benchmarks"). The workers write the output images row by row (`output.rs`).
 //!
-//! The table itself (building, file format) is in [`table`] and [`format`].
+//! The table itself (building, file format) is in [`table`] and [`format`](mod@format).
 
 mod fit;
 mod options;

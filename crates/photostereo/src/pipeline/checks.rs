@@ -7,7 +7,7 @@ use crate::spatial;
 use crate::sphere::{self, checks};
 use crate::warning::{Warning, WarningCode};
 
-/// Share of the mask decided by their neighbours above which [`warnings`] says so.
+/// Share of the mask decided by their neighbours above which `warnings` says so.
 pub const NEIGHBOURS_WARN: f64 = 0.5;
 
 /// The warnings of the sphere check (lookup jobs that detected the sphere) and of the

@@ -11,11 +11,11 @@ use crate::error::Result;
 use crate::io;
 use crate::progress::Progress;
 
-/// The whole job: [`load`], [`super::solve`], [`super::write_outputs`] into `out`.
+/// The whole job: [`load`](fn@super::load), [`super::solve`], [`super::write_outputs`] into `out`.
 ///
 /// Without interreflection removal (a global iteration on the whole stack) the target's
 /// images are read by row bands within the memory budget [`Options::memory`]
-/// ([`crate::plan`]); the results are those of [`load`] and [`super::solve`]. Bracketed
+/// ([`crate::plan`]); the results are those of [`load`](fn@super::load) and [`super::solve`]. Bracketed
 /// exposures and non-linear images are loaded whole (no memory plan).
 pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress) -> Result<Run> {
     // bracketed exposures and non-linear (JPEG) images are merged / linearised by the

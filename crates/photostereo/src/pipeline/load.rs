@@ -52,7 +52,7 @@ pub struct Loaded {
     /// (stage, seconds) of the loading: `load`, and `lights` for a Lambertian job.
     pub stages: Vec<(String, f64)>,
     /// Whether the images' radiance scale is known (given, or from `meta.json` with
-    /// interreflection removal; [`scale_is_known`]); [`run`] passes it on as
+    /// interreflection removal; [`scale_is_known`]); [`run`](fn@super::run) passes it on as
     /// [`crate::interreflect::NikOptions::scale_known`].
     pub scale_known: bool,
     /// The factor the images were multiplied by and where it came from (Lambertian).
@@ -60,7 +60,7 @@ pub struct Loaded {
     /// The chrome sphere the lights came from.
     pub chrome: Option<sphere::Detection>,
     /// Warnings about the inputs found while loading (a "chrome" sphere without mirror
-    /// highlights); [`run`] adds them to the output's.
+    /// highlights); [`run`](fn@super::run) adds them to the output's.
     pub warnings: Vec<Warning>,
     /// The response curve the target's images were linearised with (resolved).
     pub response: io::Response,

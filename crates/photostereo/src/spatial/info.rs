@@ -174,7 +174,7 @@ const MAX_SAMPLE_COST: f64 = 16.0;
 
 /// For each `select`ed pixel, by how much its own data reject the normal of `other`
 /// against its `own` normal: C(other) − C(own) in units of the noise variance (twice a
-/// log-likelihood ratio), with C(n) = Σ_k min(r_k²/σ², [`MAX_SAMPLE_COST`]) and censored
+/// log-likelihood ratio), with C(n) = Σ_k min(r_k²/σ², `MAX_SAMPLE_COST`) and censored
 /// samples as one-sided bounds; 0 elsewhere.
 ///
 /// Not made here: a correction for the optimism of the match (searched over the whole
@@ -216,7 +216,7 @@ pub fn cost_increase(
 }
 
 impl<'a> TablePixel<'a> {
-    /// The pixel's cost Σ_k min(r_k²/σ²(pred_k), [`MAX_SAMPLE_COST`]) at normal `n` with
+    /// The pixel's cost Σ_k min(r_k²/σ²(pred_k), `MAX_SAMPLE_COST`) at normal `n` with
     /// brightness `scale`, r_k = t_k − pred_k except for censored samples, whose
     /// residual is only the prediction's excess over their bound.
     fn cost(&self, t: &[f32], n: [f32; 3], scale: f32, v: &mut [f32]) -> f64 {

@@ -229,7 +229,7 @@ impl ShapeCheck {
     }
 }
 
-/// Follow [`SHAPE_RAYS`] rays from the detection's centre outward from half its radius
+/// Follow `SHAPE_RAYS` rays from the detection's centre outward from half its radius
 /// to 1.5 radii; where each leaves the region (`mask` when given, else the pixels of
 /// the maximum image brighter than a fifth of the median inside 0.8 radii), compare
 /// with the radius.
