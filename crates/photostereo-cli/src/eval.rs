@@ -17,10 +17,11 @@ Pixels count inside the mask (all pixels without --mask) where the ground truth 
 an estimate that is NaN or zero there counts as 180°."
 )]
 pub struct Args {
-    /// Estimated normal map, float (H, W, 3) .npy.
+    /// Estimated normal map, float (H, W, 3) .npy, or an RGB PNG/TIFF with c = (n + 1)/2.
     #[arg(long, value_name = "EST.npy", requires = "gt")]
     normals: Option<PathBuf>,
-    /// Ground-truth normal map, float (H, W, 3) .npy.
+    /// Ground-truth normal map, float (H, W, 3) .npy, or an RGB PNG/TIFF with c = (n + 1)/2
+    /// (DiLiGenT's normal maps).
     #[arg(long, value_name = "GT.npy", requires = "normals")]
     gt: Option<PathBuf>,
     /// Mask (PNG/TIFF, non-zero = inside, or .npy); default: every pixel.
@@ -79,8 +80,8 @@ fn eval_normals(
     mask: Option<&Mask>,
     args: &Args,
 ) -> anyhow::Result<NormalStats> {
-    let est = io::read_normals_npy(est)?;
-    let gt = io::read_normals_npy(gt)?;
+    let est = io::read_normals_any(est)?;
+    let gt = io::read_normals_any(gt)?;
     let full = Mask::full(gt.width, gt.height);
     let mask = mask.unwrap_or(&full);
     let stats = angular_errors(&est, &gt, mask)?;

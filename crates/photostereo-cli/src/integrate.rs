@@ -28,7 +28,9 @@ distance along the optical axis (positive, larger = farther, up to scale: the ge
 over the mask is the focal length in pixels). Separate parts of the mask are placed by --parts
 (default contour: their occluding contours at one depth, as a goblet's cup and foot).")]
 pub struct Args {
-    /// Normal map: float32 .npy of shape (H, W, 3), camera frame (x right, y up, z to camera).
+    /// Normal map: float32 .npy of shape (H, W, 3), camera frame (x right, y up, z to camera),
+    /// or an 8/16-bit RGB PNG/TIFF encoding c = (n + 1)/2 (black = unknown), as DiLiGenT's
+    /// normal_map.png and our normals.png.
     pub normals: PathBuf,
     /// Object mask (PNG or .npy); default: the whole image.
     #[arg(long)]
@@ -113,7 +115,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         args.min_nz
     );
     let parts = Parts::from_name(&args.parts)?;
-    let normals = io::read_normals_npy(&args.normals)?;
+    let normals = io::read_normals_any(&args.normals)?;
     let mask = read_mask(&args, &normals)?;
     let method = method(&args, &mask)?;
     let camera = camera(&args, normals.width, normals.height)?;

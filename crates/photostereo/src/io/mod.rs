@@ -76,8 +76,9 @@ pub use npy::{
     read_gray_npy, read_mask_npy, read_normals_npy, write_gray_npy, write_mask_npy, write_normals,
 };
 pub use raster::{
-    read_gray_image, read_mask, read_mask_any, read_normals_png, write_colormap_png,
-    write_depth_png, write_gray_png, write_gray_png_range, write_mask_png, write_normals_png,
+    read_gray_image, read_mask, read_mask_any, read_normals_any, read_normals_png,
+    write_colormap_png, write_depth_png, write_gray_png, write_gray_png_range, write_mask_png,
+    write_normals_png,
 };
 pub use response::Response;
 pub use run::{

@@ -291,10 +291,34 @@ pub fn read_mask_any(path: &Path) -> Result<Mask> {
     }
 }
 
+/// Read a normal map from a float `.npy` of shape (H, W, 3)
+/// ([`read_normals_npy`](super::read_normals_npy)) or from an 8/16-bit RGB image
+/// encoding c = (n + 1)/2 ([`read_normals_png`]: DiLiGenT's and BiNI's `normal_map.png`,
+/// our own `normals.png`), chosen by the extension.
+pub fn read_normals_any(path: &Path) -> Result<NormalMap> {
+    let is_npy = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("npy"));
+    if is_npy {
+        super::read_normals_npy(path)
+    } else {
+        read_normals_png(path)
+    }
+}
+
 /// Read a normal map written by [`write_normals_png`]: n = 2c − 1, normalised; black
 /// pixels (all channels 0) are unknown and come back as `[0, 0, 0]`.
 pub fn read_normals_png(path: &Path) -> Result<NormalMap> {
-    let img = open_image(path)?.into_rgb32f();
+    let img = open_image(path)?;
+    if img.color().channel_count() < 3 {
+        return Err(Error::Decode {
+            path: path.to_path_buf(),
+            message: "a gray image is not a normal map (expected RGB with c = (n + 1)/2, or a \
+                      float .npy of shape (H, W, 3))"
+                .into(),
+        });
+    }
+    let img = img.into_rgb32f();
     let (w, h) = (img.width() as usize, img.height() as usize);
     let data = img
         .pixels()
