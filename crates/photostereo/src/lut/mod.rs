@@ -119,6 +119,7 @@
 
 mod fit;
 mod options;
+pub mod outline;
 mod output;
 mod search;
 pub mod table;
@@ -223,6 +224,9 @@ pub struct Lookup<'t> {
     derived: Option<Vec<Table>>,
     opts: Options,
     prep: search::Prep,
+    /// The brightness-free match of the mask's outline ([`Options::outline_coverage`]):
+    /// its options (`normalize` on) and prepared search.
+    outline: Option<(Options, search::Prep)>,
 }
 
 impl<'t> Lookup<'t> {
@@ -254,11 +258,20 @@ impl<'t> Lookup<'t> {
         };
         let searched = derived.as_deref().unwrap_or(&tables);
         let prep = search::Prep::new(&Model::new(searched, opts.normalize), opts);
+        let outline = outline_applies(searched, opts).then(|| {
+            let o = Options {
+                normalize: true,
+                ..opts.clone()
+            };
+            let p = search::Prep::new(&Model::new(searched, true), &o);
+            (o, p)
+        });
         Lookup {
             given: tables,
             derived,
             opts: opts.clone(),
             prep,
+            outline,
         }
     }
 
@@ -295,6 +308,10 @@ impl<'t> Lookup<'t> {
     /// [`Lookup::solve`] on a checked target.
     fn run(&self, stack: &ImageStack, mask: &Mask, progress: &dyn Progress) -> Output {
         let solver = Solver::with(self.model(), &self.opts, &self.prep);
+        let outline = self.outline.as_ref().map(|(o, prep)| {
+            let searched = self.derived.as_deref().unwrap_or(&self.given);
+            Solver::with(Model::new(searched, true), o, prep)
+        });
         let n_tables = self.derived.as_ref().map_or(self.given.len(), Vec::len);
         let (w, h, k) = (stack.width, stack.height, stack.k);
         let mut planes = Planes::new(w, h, n_tables, self.opts.normalize);
@@ -306,6 +323,7 @@ impl<'t> Lookup<'t> {
             .enumerate()
             .map(|(r, mut row)| {
                 let mut wk = Work::new(k);
+                let mut wo = outline.as_ref().map(|_| Work::new(k));
                 for c in 0..w {
                     if !*mask.get(r, c) {
                         wk.warm = None;
@@ -314,7 +332,13 @@ impl<'t> Lookup<'t> {
                     for (dst, &v) in wk.t.iter_mut().zip(stack.pixel(r, c)) {
                         *dst = if v.is_finite() { v } else { 0.0 };
                     }
-                    row.set(c, &solver.pixel(&mut wk));
+                    let mut px = solver.pixel(&mut wk);
+                    if let (Some(os), Some(wo)) = (&outline, wo.as_mut()) {
+                        if outline::on_outline(mask, r, c) {
+                            px = coverage_refit(&solver, os, (&mut wk, wo), px);
+                        }
+                    }
+                    row.set(c, &px);
                 }
                 progress.advance(1);
                 row.stats
@@ -323,6 +347,41 @@ impl<'t> Lookup<'t> {
         progress.finish();
         planes.into_output(stats)
     }
+}
+
+/// Whether the outline's brightness-free match applies ([`Options::outline_coverage`]):
+/// one table searched, the refined method, no brightness fitted at every pixel already.
+fn outline_applies(searched: &[Table], opts: &Options) -> bool {
+    opts.outline_coverage
+        && searched.len() == 1
+        && opts.method == Method::Refined
+        && !opts.normalize
+        && !opts.split_specular
+}
+
+/// The outline pixel whose plain match is `plain` (tuple in `wk.t`), matched again on its
+/// tuple divided by the coverage its brightness-free match stands for (`outline.rs`),
+/// where that match fits clearly better: RMS residual below the plain one's by the factor
+/// [`outline::RESIDUAL_RATIO`] (a free brightness alone, on noise, lowers it by about
+/// 1/(2K)). `wo` holds the outline solver's own buffers (no warm start).
+fn coverage_refit(
+    solver: &Solver,
+    os: &Solver,
+    (wk, wo): (&mut Work, &mut Work),
+    plain: output::PixelOut,
+) -> output::PixelOut {
+    let k = solver.model.k;
+    wo.t[..k].copy_from_slice(&wk.t[..k]);
+    wo.warm = None;
+    let free = os.pixel(wo);
+    let g = outline::coverage(free.coef[0]);
+
+    let clearly_better = outline::RESIDUAL_RATIO * free.residual < plain.residual;
+    if g >= 1.0 || !clearly_better {
+        return plain;
+    }
+    wk.t[..k].iter_mut().for_each(|v| *v /= g);
+    solver.pixel(wk)
 }
 
 /// The target's checks: lights, mask size, a non-empty mask, the same lights as the

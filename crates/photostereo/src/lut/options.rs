@@ -56,6 +56,12 @@ pub struct Options {
     /// matte table keeps normalised matching. Resolved by [`super::options_for`].
     /// Default false.
     pub split_if_specular: bool,
+    /// Match each pixel of the mask's outline (next to background) with a free brightness
+    /// first and correct its tuple for the share of its footprint that sees the object
+    /// (`outline.rs`: silhouette pixels are area averages partly over the background).
+    /// Applies to one table, [`Method::Refined`], without `normalize` or the split (those
+    /// fit a brightness at every pixel already). Default true.
+    pub outline_coverage: bool,
 }
 
 impl Default for Options {
@@ -72,6 +78,7 @@ impl Default for Options {
             weight_scale: 0.025,
             split_specular: false,
             split_if_specular: false,
+            outline_coverage: true,
         }
     }
 }
