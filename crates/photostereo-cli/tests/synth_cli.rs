@@ -100,6 +100,11 @@ fn synth_rejects_bad_arguments_without_writing() {
         (vec!["--black-level", "1.5"], "black level"),
         (vec!["--blur=-1"], "blur"),
         (vec!["--exposure", "bright"], "`peak`"),
+        (vec!["--roughness", "0"], "GGX width"),
+        (
+            vec!["--material", "lambertian", "--roughness", "0.3"],
+            "GGX materials",
+        ),
     ] {
         let dir = out_dir("bad");
         let out = Command::new(env!("CARGO_BIN_EXE_photostereo"))
@@ -134,6 +139,27 @@ fn camera_dataset(name: &str, args: &[&str]) -> (photostereo::io::Dataset, PathB
         ..LoadOptions::default()
     };
     (load_dataset(&dir, &raw).unwrap(), dir)
+}
+
+#[test]
+fn synth_roughness_makes_a_shinier_metal_leave_more_of_an_8bit_target_dark() {
+    let dark_fraction = |alpha: &str| {
+        let args = ["--bits", "8", "--exposure", "peak", "--roughness", alpha];
+        let (ds, dir) = camera_dataset(&format!("rough{alpha}"), &args);
+        let mask = ds.mask.as_ref().unwrap();
+        let inside: Vec<usize> = (0..ds.stack.pixels()).filter(|&i| mask.data[i]).collect();
+        let dark = inside
+            .iter()
+            .filter(|&&i| ds.stack.pixel_flat(i).iter().all(|&v| v * 255.0 <= 5.5))
+            .count();
+        let _ = std::fs::remove_dir_all(&dir);
+        dark as f64 / inside.len() as f64
+    };
+    let (shiny, rough) = (dark_fraction("0.15"), dark_fraction("0.4"));
+    assert!(
+        shiny > rough + 0.05,
+        "dark pixels α 0.15 {shiny:.3}, α 0.4 {rough:.3}"
+    );
 }
 
 #[test]
