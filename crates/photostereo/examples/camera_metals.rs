@@ -41,7 +41,19 @@ fn main() -> anyhow::Result<()> {
     opts.exposure = synth::exposure_for_full_scale(&opts, Some(100.0), 1.0)?;
     let target = synth::render(&opts)?;
     let sphere = synth::render_calibration_sphere(&opts, 100.0)?;
-    let circle = sphere::detect(&sphere.stack, &DetectOptions::default())?.circle;
+    // the sphere's true circle (centre at 2 + r, see `render_calibration_sphere`) where
+    // detection fails: a shiny sphere's maximum image may show only its lit cap
+    let circle = match sphere::detect(&sphere.stack, &DetectOptions::default()) {
+        Ok(found) => found.circle,
+        Err(e) => {
+            println!("circle not found ({e}); the true circle is used");
+            photostereo::sphere::Circle {
+                cx: 102.0,
+                cy: 102.0,
+                radius: 100.0,
+            }
+        }
+    };
     let table = Table::build(&sphere.stack, &circle, &BuildOptions::default())?;
     let tables = std::slice::from_ref(&table);
     let err = |n: &photostereo::NormalMap| {

@@ -35,9 +35,23 @@ const TOLERANCE: f64 = 1e-5;
 /// three alternated runs, docs/benchmarks.md, "Spatial stage"); 1e-3 is
 /// cheaper still but gives back part of the gain (8-bit metal 0.273 → 0.281°).
 const STEP_TOLERANCE: f64 = 1e-4;
-/// Ridge (× λ) that pulls every pixel towards its own match (keeps the system definite
-/// where no pixel carries evidence).
-const RIDGE: f32 = 1e-3;
+/// Ridge (× λ) that pulls every pixel towards its own solution A⁻¹b (0 where it has no
+/// evidence): it only keeps the system definite where no pixel carries evidence (an
+/// isolated pixel without data has no prior term either). It must stay far below the
+/// prior over the widest region without evidence: on a band L px wide a smooth bend δ
+/// costs the prior about λδ²/L³ per line and the ridge ridge·L·δ², a ratio ridge·L⁴.
+/// At 1e-3 (until 2026-12-06) that ratio was ≈ 800 over the 30 px dark rim of an 8-bit
+/// metal, which the prior should continue from the lit inside to the contour: the ridge
+/// pulled those pixels to their scattered matches (or, with no information, to a
+/// normal facing the camera). Measured (`examples/camera_metals`, GGX metal F₀ 0.9,
+/// 8-bit exposed for the peak, 256² blob, sphere r 100): α 0.15 (37% of the pixels
+/// below 6 levels in every image) 1.740° → 0.774° (1e-5: 0.88°), α 0.1 (true circle)
+/// 17.9° → 1.04°, α 0.15 blurred 0.8 px with a 3% black level (true circle) 2.40° →
+/// 0.84°; `tests/camera_images.rs` within +0.008° (8-bit metal α 0.2 0.264 → 0.271°)
+/// and −0.015° (8-bit Lambertian clipped), the noise sweep's metal at 1% 1.394 →
+/// 1.392°. At 1e-7 the ratio passes 1 on bands wider than about 55 px: a 4096² capture
+/// with a dark band that wide still feels it.
+const RIDGE: f32 = 1e-7;
 /// Index of a grid pixel outside the mask.
 const NONE: u32 = u32::MAX;
 /// Bit of [`Level::tri`]: the row triple centred at the pixel is in the prior.
