@@ -47,7 +47,7 @@ fn main() -> anyhow::Result<()> {
         Ok(found) => found.circle,
         Err(e) => {
             println!("circle not found ({e}); the true circle is used");
-            photostereo::sphere::Circle {
+            sphere::Circle {
                 cx: 102.0,
                 cy: 102.0,
                 radius: 100.0,
@@ -76,18 +76,12 @@ fn main() -> anyhow::Result<()> {
         &noise,
         &spatial::Options::default(),
     )?;
-    let samples: Vec<f32> = target
-        .mask
-        .data
-        .iter()
-        .enumerate()
-        .filter(|(_, &m)| m)
-        .flat_map(|(i, _)| {
-            let (r, c) = (i / target.mask.width, i % target.mask.width);
-            target.stack.pixel(r, c).to_vec()
-        })
-        .collect();
-    let zeros = samples.iter().filter(|&&v| v <= 0.0).count() as f64 / samples.len() as f64;
+    let inside = (0..target.mask.data.len()).filter(|&i| target.mask.data[i]);
+    let (zeros, samples) = inside.fold((0usize, 0usize), |(z, n), i| {
+        let px = target.stack.pixel_flat(i);
+        (z + px.iter().filter(|&&v| v <= 0.0).count(), n + px.len())
+    });
+    let zeros = zeros as f64 / samples as f64;
     by_lit(&target, &out.normals, &sp.normals);
     println!(
         "F0 {f0} alpha {alpha} blur {blur} black {black}: zeros {:.1}%, nearest {:.3}°, \
@@ -108,10 +102,9 @@ fn by_lit(t: &synth::Scene, lookup: &photostereo::NormalMap, default: &photoster
         if !t.mask.data[i] {
             continue;
         }
-        let (r, c) = (i / t.mask.width, i % t.mask.width);
         let lit = t
             .stack
-            .pixel(r, c)
+            .pixel_flat(i)
             .iter()
             .filter(|&&v| v > 5.0 / 255.0)
             .count();

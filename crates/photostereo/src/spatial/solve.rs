@@ -49,8 +49,10 @@ const STEP_TOLERANCE: f64 = 1e-4;
 /// 17.9° → 1.04°, α 0.15 blurred 0.8 px with a 3% black level (true circle) 2.40° →
 /// 0.84°; `tests/camera_images.rs` within +0.008° (8-bit metal α 0.2 0.264 → 0.271°)
 /// and −0.015° (8-bit Lambertian clipped), the noise sweep's metal at 1% 1.394 →
-/// 1.392°. At 1e-7 the ratio passes 1 on bands wider than about 55 px: a 4096² capture
-/// with a dark band that wide still feels it.
+/// 1.392°. At 1e-7 the ratio passes 1 on bands wider than about 55 px, yet on a 1024²
+/// render of the α 0.15 metal (a rim about 120 px wide) 1e-9 and 0 were no better
+/// (1.545° at 1e-7, 1.572° / 1.590°): there the dark pixels' own information, not the
+/// ridge, outweighs the prior (docs/accuracy.md, "Shinier metals").
 const RIDGE: f32 = 1e-7;
 /// Index of a grid pixel outside the mask.
 const NONE: u32 = u32::MAX;
