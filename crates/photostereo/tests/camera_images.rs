@@ -28,8 +28,20 @@ fn render(material: Material, camera: Camera) -> Case {
 /// [`render`] with `over` times that exposure: every sample above full scale clipped
 /// (`synth --exposure FACTOR`).
 fn render_exposed(material: Material, camera: Camera, over: f32) -> Case {
+    render_shape((ShapeKind::Blob, true), material, camera, over)
+}
+
+/// [`render_exposed`] with a target of another shape (`synth --shape`), with or without
+/// cast shadows (`synth --no-shadows`).
+fn render_shape(
+    (kind, cast_shadows): (ShapeKind, bool),
+    material: Material,
+    camera: Camera,
+    over: f32,
+) -> Case {
     let mut opts = SceneOptions {
-        shape: Shape::preset(ShapeKind::Blob, 256, 256),
+        shape: Shape::preset(kind, 256, 256),
+        cast_shadows,
         material,
         lights: synth::default_lights(16),
         camera,
@@ -300,9 +312,10 @@ fn shinier_metal_8bit_leaves_a_dark_rim_that_the_prior_continues() {
     // with at most two lights above 5 levels (55%) is matched (57%). Measured (true
     // circle / circle found): nearest 2.091 / 2.085°, lookup 1.902 / 1.897°, default
     // 0.777 / 0.774°; with the solve's former ridge (1e-3, `spatial::solve`) the default
-    // was 1.74° with the circle found
+    // was 1.74° with the circle found; with the refit without the pixels whose own
+    // data reject the solution (`spatial::solve_with_rejection`) 0.715 / 0.694°
     let case = render(metal_of_width(0.15), camera(8, 0.0, 0.0));
-    check("metal α 0.15 8-bit", &case, 0.85);
+    check("metal α 0.15 8-bit", &case, 0.75);
 }
 
 #[test]
@@ -314,4 +327,17 @@ fn shiniest_metal_8bit_true_circle() {
     let r = measure(&case, &case.truth_circle);
     println!("metal α 0.1 8-bit, true circle: {r:?}");
     assert!(r.spatial < 1.2 && r.spatial < 0.1 * r.lookup, "{r:?}");
+}
+
+#[test]
+fn vgroove_metal_8bit_without_cast_shadows_keeps_its_flat_faces() {
+    // Two planar faces at ±45° meeting at a crease, GGX α 0.15, 8-bit, no cast shadows
+    // (`synth --shape vgroove --no-shadows`). Measured (true circle / circle found):
+    // nearest 0.484 / 0.493°, lookup 0.1568 / 0.1652°, default 0.1568 / 0.1651°. Before the refit
+    // without the pixels whose own data reject the solution
+    // (`spatial::solve_with_rejection`) the default was 0.1721° (true circle), +9.8%
+    // over the lookup: their matches bent the flat faces near the crease by 0.1–0.2°.
+    let shape = (ShapeKind::VGroove, false);
+    let case = render_shape(shape, metal_of_width(0.15), camera(8, 0.0, 0.0), 1.0);
+    check("V-groove metal α 0.15 8-bit, no cast shadows", &case, 0.2);
 }

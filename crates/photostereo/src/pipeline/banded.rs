@@ -399,23 +399,41 @@ fn spatial_pass(
         Some(sp_opts) => {
             let tp = (table, model, sp_opts.shadow_level);
             let ev = evidence(cap, tp, (&est.normals, albedo.as_ref()), None, p)?;
-            let (mut sp, ev) =
-                spatial::solve_relinearised(ev, mask, sp_opts, |normals, far, ev| {
-                    let only = Some((far, ev));
-                    evidence(cap, tp, (normals, albedo.as_ref()), only, p).map(|_| ())
-                })?;
-            let matches = (&ev, &est.normals);
-            spatial::keep_own_where_rejected(&mut sp, matches, mask, &noise, sp_opts, |s, m| {
-                let pair = (&est.normals, s);
-                own_cost_rise(cap, tp, (pair, albedo.as_ref()), m, p)
-            })?;
-            drop(ev);
+            let mut data = BandData {
+                cap,
+                tp,
+                matches: (&est.normals, albedo.as_ref()),
+                progress: p,
+            };
+            let pair = (mask, &est.normals);
+            let sp = spatial::solve_with_rejection(ev, pair, &noise, sp_opts, &mut data)?;
             adopt(&mut est, noise, sp)
         }
     };
     est.albedo = albedo;
     est.spatial = Some(info);
     Ok(est)
+}
+
+/// A capture's own data read again by row bands for the spatial stage.
+struct BandData<'a> {
+    cap: &'a mut Capture,
+    tp: (&'a lut::Table, Model<'a>, f32),
+    matches: (&'a NormalMap, Option<&'a GrayImage>),
+    progress: &'a dyn Progress,
+}
+
+impl spatial::OwnData for BandData<'_> {
+    fn relinearise(&mut self, normals: &NormalMap, far: &[bool], ev: &mut Evidence) -> Result<()> {
+        let only = Some((far, ev));
+        let albedo = self.matches.1;
+        evidence(self.cap, self.tp, (normals, albedo), only, self.progress).map(|_| ())
+    }
+
+    fn cost_rise(&mut self, solution: &NormalMap, moved: &[bool]) -> Result<Vec<f32>> {
+        let pair = ((self.matches.0, solution), self.matches.1);
+        own_cost_rise(self.cap, self.tp, pair, moved, self.progress)
+    }
 }
 
 /// The evidence of the lookup's matches ([`spatial::info::from_table`]) by bands; or,

@@ -63,6 +63,8 @@
 //! the solution keeps its match. Measured on the project's 8-bit renders (blob, sphere
 //! r 100, 16 lights, exposed for the peak; `tests/camera_images.rs`), rough metal: 3.88°
 //! without the rule and the censoring, 1.05° with them, the lookup alone 1.16°.
+//! The pixels so returned then shape no neighbour: the field is solved once more without
+//! their evidence ([`Options::refit`], [`solve_with_rejection`]).
 //!
 //! **Confidence afterwards**: the share of the pixel's posterior information that is its
 //! own, s = tr A / tr(A + P) with P the prior's diagonal, is returned in
@@ -77,12 +79,14 @@ mod contour;
 pub mod info;
 pub mod levels;
 pub mod noise;
+mod reject;
 pub mod roughness;
 mod solve;
 
 pub use info::{angular_sigma_deg, Evidence, MAX_SIGMA_DEG};
 pub use levels::{Censor, Levels};
 pub use noise::{NoiseModel, NoiseSampler};
+pub use reject::{keep_own_where_rejected, solve_with_rejection, OwnData, DECIDED_BY_OWN};
 
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, ImageStack, Mask, NormalMap};
@@ -129,6 +133,11 @@ pub struct Options {
     /// samples as bounds, see [`info::cost_increase`]). Default 9 (about 3σ; χ² with
     /// two degrees of freedom, 1%).
     pub reject: f32,
+    /// [`solve_table`]: where the rule of `reject` returned pixels to their match, solve
+    /// once more without those pixels' evidence, with at most this many
+    /// re-linearisation passes (module `reject`: a match its own surroundings
+    /// contradict shapes no neighbour); `None` = no refit. Default `Some(4)`.
+    pub refit: Option<usize>,
 }
 
 impl Default for Options {
@@ -143,6 +152,7 @@ impl Default for Options {
             passes: 8,
             trust: 25.0,
             reject: 9.0,
+            refit: Some(4),
         }
     }
 }
@@ -236,27 +246,45 @@ pub fn solve_lookup(
     let censor = Censor::new(stack, mask, noise.step);
     let model = (noise, &censor);
     let ev = info::from_table(stack, mask, table, normals, albedo, model, level);
-    let (mut out, ev) = solve_relinearised(ev, mask, opts, |normals, far, ev| {
+    let mut data = HeldData {
+        stack,
+        mask,
+        table,
+        matches: (normals, albedo),
+        model,
+        level,
+    };
+    solve_with_rejection(ev, (mask, normals), noise, opts, &mut data)
+}
+
+/// The own data of a capture held whole ([`solve_lookup`]).
+struct HeldData<'a> {
+    stack: &'a ImageStack,
+    mask: &'a Mask,
+    table: &'a Table,
+    matches: (&'a NormalMap, Option<&'a GrayImage>),
+    model: (&'a NoiseModel, &'a Censor),
+    level: f32,
+}
+
+impl OwnData for HeldData<'_> {
+    fn relinearise(&mut self, normals: &NormalMap, far: &[bool], ev: &mut Evidence) -> Result<()> {
+        let (stack, mask, table, albedo) = (self.stack, self.mask, self.table, self.matches.1);
+        let (model, level) = (self.model, self.level);
         let lin = info::linearise(stack, mask, table, normals, albedo, model, level, far);
         for (i, _) in far.iter().enumerate().filter(|(_, &f)| f) {
             (ev.u[i], ev.a[i], ev.g[i]) = (lin.u[i], lin.a[i], lin.g[i]);
         }
         Ok(())
-    })?;
-    keep_own_where_rejected(
-        &mut out,
-        (&ev, normals),
-        mask,
-        noise,
-        opts,
-        |solution, moved| {
-            let pair = (normals, solution);
-            Ok(info::cost_increase(
-                stack, mask, table, pair, albedo, model, level, moved,
-            ))
-        },
-    )?;
-    Ok(out)
+    }
+
+    fn cost_rise(&mut self, solution: &NormalMap, moved: &[bool]) -> Result<Vec<f32>> {
+        let (stack, mask, table) = (self.stack, self.mask, self.table);
+        let (pair, albedo) = ((self.matches.0, solution), self.matches.1);
+        Ok(info::cost_increase(
+            stack, mask, table, pair, albedo, self.model, self.level, moved,
+        ))
+    }
 }
 
 /// [`solve_lookup`] from the evidence of the lookup's matches (`ev`, from
@@ -307,85 +335,6 @@ pub fn solve_relinearised(
     out.stats.iterations = iterations;
     ev.g = Vec::new();
     Ok((out, ev))
-}
-
-/// Own share at or above which [`keep_own_where_rejected`] returns a pixel's match.
-pub const DECIDED_BY_OWN: f32 = 0.999;
-
-/// Pixel `i` gets its match back, with the match's standard error (`ev`, the matches'
-/// evidence).
-fn take_match(out: &mut Output, (ev, matches): (&Evidence, &NormalMap), i: usize) {
-    out.normals.data[i] = matches.data[i];
-    out.sigma_deg.data[i] = angular_sigma_deg(ev.u[i], ev.a[i]);
-}
-
-/// Every mask pixel of own share ≥ [`DECIDED_BY_OWN`] whose normal moved gets its match
-/// back; returns whether any did.
-fn restore_decided_by_own(out: &mut Output, evm: (&Evidence, &NormalMap), mask: &Mask) -> bool {
-    let mut changed = false;
-    for i in 0..mask.data.len() {
-        if mask.data[i]
-            && out.own_share.data[i] >= DECIDED_BY_OWN
-            && out.normals.data[i] != evm.1.data[i]
-        {
-            take_match(out, evm, i);
-            changed = true;
-        }
-    }
-    changed
-}
-
-/// The rule that a pixel is decided by its neighbours only where its own evidence cannot
-/// tell: every pixel whose own data reject the spatial normal (their cost rises by more
-/// than [`Options::reject`] from the match's, `rise(solution, moved)`: for the `moved`
-/// pixels, [`info::cost_increase`] from the `matches` to the solution) gets back its
-/// match, with own share 1 and the standard error of its match (`ev`, the matches'
-/// evidence). The quadratic information A cannot make this test: it is the curvature at
-/// the match, and a dark pixel whose samples are bounds (zeros of an 8-bit image) has
-/// almost none, although a normal that would light one of its zeros is plainly wrong.
-///
-/// Applied only where the noise is quantisation-limited
-/// ([`NoiseModel::quantisation_limited`]): under real Gaussian noise the match has
-/// fitted part of the noise, its own cost then rises at any other normal, and the rule
-/// would refuse the neighbours' good normals (measured: 1%-noise rough metal 1.90 →
-/// 2.58°).
-///
-/// First, on any noise, a pixel whose own share is at least [`DECIDED_BY_OWN`] gets its
-/// match back: the prior moves its exact solution by less than 0.1% of the way to the
-/// neighbours' normal, but the f32 solve does not resolve that near the rim, where a
-/// step δ of (n_x, n_y) turns the normal by δ / n_z (clean 16-bit Lambertian: pixels
-/// at 85–90° with own share 0.99998 came out up to 2.4° from their match, the band's
-/// error 0.0002 → 0.023°).
-pub fn keep_own_where_rejected(
-    out: &mut Output,
-    (ev, matches): (&Evidence, &NormalMap),
-    mask: &Mask,
-    noise: &NoiseModel,
-    opts: &Options,
-    rise: impl FnOnce(&NormalMap, &[bool]) -> Result<Vec<f32>>,
-) -> Result<()> {
-    out.stats.kept_own = 0;
-    let restored = restore_decided_by_own(out, (ev, matches), mask);
-    if noise.quantisation_limited() {
-        let moved: Vec<bool> = (0..mask.data.len())
-            .map(|i| mask.data[i] && out.normals.data[i] != matches.data[i])
-            .collect();
-        let rise = rise(&out.normals, &moved)?;
-        let mut kept = 0;
-        for (i, _) in rise.iter().enumerate().filter(|(_, &d)| d > opts.reject) {
-            take_match(out, (ev, matches), i);
-            out.own_share.data[i] = 1.0;
-            kept += 1;
-        }
-        out.stats.kept_own = kept;
-        out.stats.decided_by_neighbours = (0..mask.data.len())
-            .filter(|&i| mask.data[i] && out.own_share.data[i] < 0.5)
-            .count();
-    }
-    if restored || noise.quantisation_limited() {
-        out.stats.mean_sigma_deg = mean_in(&out.sigma_deg, mask);
-    }
-    Ok(())
 }
 
 /// Mask pixels whose normal in `normals` lies outside the trust region of their match:
