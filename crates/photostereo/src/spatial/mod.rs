@@ -86,7 +86,9 @@ mod solve;
 pub use info::{angular_sigma_deg, Evidence, MAX_SIGMA_DEG};
 pub use levels::{Censor, Levels};
 pub use noise::{NoiseModel, NoiseSampler};
-pub use reject::{keep_own_where_rejected, solve_with_rejection, OwnData, DECIDED_BY_OWN};
+pub use reject::{
+    keep_own_where_rejected, solve_with_rejection, OwnData, DECIDED_BY_OWN, REFIT_MIN_SHARE,
+};
 
 use crate::error::{Error, Result};
 use crate::image::{GrayImage, ImageStack, Mask, NormalMap};
