@@ -42,7 +42,7 @@ pub(crate) fn on_outline(mask: &Mask, r: usize, c: usize) -> bool {
         || (c + 1 < w && out(r, c + 1))
 }
 
-/// [`on_outline`] at row-major index `i` of the mask.
+/// Whether the pixel at row-major index `i` of the mask is on its outline (`on_outline`).
 pub fn on_outline_at(mask: &Mask, i: usize) -> bool {
     on_outline(mask, i / mask.width.max(1), i % mask.width.max(1))
 }
