@@ -135,8 +135,9 @@ pub struct Options {
     /// samples as bounds, see [`info::cost_increase`]). Default 9 (about 3σ; χ² with
     /// two degrees of freedom, 1%).
     pub reject: f32,
-    /// [`solve_table`]: where the rule of `reject` returned pixels to their match, solve
-    /// once more without those pixels' evidence, with at most this many
+    /// [`solve_table`]: where the rule of `reject` returned at least [`REFIT_MIN_SHARE`]
+    /// of the mask's pixels to their match, solve once more without those pixels'
+    /// evidence, with at most this many
     /// re-linearisation passes (module `reject`: a match its own surroundings
     /// contradict shapes no neighbour); `None` = no refit. Default `Some(4)`.
     pub refit: Option<usize>,

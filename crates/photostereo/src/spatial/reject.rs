@@ -7,7 +7,8 @@
 //! know (a dark pixel matched by chance among the many sphere pixels that share its
 //! tuple, a cast shadow beside a crease on a metal, where a shadowed tuple is another
 //! normal's tuple), the prior carries it into every weak neighbour. So, when the rule
-//! returned any pixel to its match ([`Options::refit`]), the field is solved once more
+//! returned at least [`REFIT_MIN_SHARE`] of the mask's pixels to their match
+//! ([`Options::refit`]), the field is solved once more
 //! with those pixels' evidence left out (A = 0: the pixel follows its neighbours and
 //! shapes none), and the rule applied again, the first set's quadratics put back for
 //! their standard errors.
@@ -70,9 +71,8 @@ pub fn solve_with_rejection(
     let (mut out, mut ev) = solve_relinearised(ev, mask, opts, relin)?;
     let rise = |s: &NormalMap, m: &[bool]| data.cost_rise(s, m);
     let kept = keep_own_where_rejected(&mut out, (&ev, matches), mask, noise, opts, rise)?;
-    let pixels = mask.data.iter().filter(|&&m| m).count();
-    let few = (kept.len() as f64) < REFIT_MIN_SHARE * pixels as f64;
-    let Some(passes) = opts.refit.filter(|_| !kept.is_empty() && !few) else {
+    let enough = !kept.is_empty() && kept.len() as f64 >= REFIT_MIN_SHARE * mask.count() as f64;
+    let Some(passes) = opts.refit.filter(|_| enough) else {
         return Ok(out);
     };
     let first_iterations = out.stats.iterations;

@@ -51,8 +51,9 @@ const STEP_TOLERANCE: f64 = 1e-4;
 /// and −0.015° (8-bit Lambertian clipped), the noise sweep's metal at 1% 1.394 →
 /// 1.392°. At 1e-7 the ratio passes 1 on bands wider than about 55 px, yet on a 1024²
 /// render of the α 0.15 metal (a rim about 120 px wide) 1e-9 and 0 were no better
-/// (1.545° at 1e-7, 1.572° / 1.590°): there the dark pixels' own information, not the
-/// ridge, outweighs the prior (docs/accuracy.md, "Shinier metals").
+/// (1.545° at 1e-7, 1.572° / 1.590°): there the error is in the dark pixels returned to
+/// their scattered matches and in those with no information at all, not the ridge
+/// (docs/accuracy.md, "Refit without the rejected pixels").
 const RIDGE: f32 = 1e-7;
 /// Index of a grid pixel outside the mask.
 const NONE: u32 = u32::MAX;
