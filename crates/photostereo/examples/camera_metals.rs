@@ -44,7 +44,14 @@ fn main() -> anyhow::Result<()> {
     // the sphere's true circle (centre at 2 + r, see `render_calibration_sphere`) where
     // detection fails: a shiny sphere's maximum image may show only its lit cap
     let circle = match sphere::detect(&sphere.stack, &DetectOptions::default()) {
-        Ok(found) => found.circle,
+        Ok(found) => {
+            let c = found.circle;
+            println!(
+                "circle found on the {}: centre ({:.3}, {:.3}), radius {:.3} px (truth (102, 102), 100)",
+                found.fitted_on, c.cx, c.cy, c.radius
+            );
+            c
+        }
         Err(e) => {
             println!("circle not found ({e}); the true circle is used");
             sphere::Circle {

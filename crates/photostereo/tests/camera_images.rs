@@ -341,3 +341,13 @@ fn vgroove_metal_8bit_without_cast_shadows_keeps_its_flat_faces() {
     let case = render_shape(shape, metal_of_width(0.15), camera(8, 0.0, 0.0), 1.0);
     check("V-groove metal α 0.15 8-bit, no cast shadows", &case, 0.2);
 }
+
+#[test]
+fn shinier_metal_8bit_blurred_with_black_level_found_as_a_faint_disk() {
+    // GGX α 0.15, 0.8 px blur, 3% black level: the sphere's maximum image is the lit cap
+    // and a rim one grey level above the background (9 against 8), so neither the
+    // bright blob nor the contrast edges find the circle; the faint disk (`sphere`,
+    // step 6b) does. Before it, `calibrate` failed on this sphere.
+    let case = render(metal_of_width(0.15), camera(8, 0.8, 0.03));
+    check("metal α 0.15 8-bit, blur 0.8 px, black 3%", &case, 0.9);
+}

@@ -3,7 +3,7 @@
 //! its size, inliers and region.
 
 use super::fit::{self, fit_robust, FitOptions};
-use super::{contrast, edges, rim, Circle, DetectOptions, Detection};
+use super::{contrast, edges, faint, rim, Circle, DetectOptions, Detection};
 use crate::error::{Error, Result, Setting};
 use crate::image::{GrayImage, ImageStack, Mask};
 use rayon::prelude::*;
@@ -62,13 +62,16 @@ pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
     };
     let det = match blob {
         Err(Error::SphereNotFound { what, reason, fix }) => {
-            contrast_fallback(stack, search.as_ref(), opts, win).map_err(|why| {
-                Error::SphereNotFound {
+            contrast_fallback(stack, search.as_ref(), opts, win)
+                .or_else(|why| {
+                    faint_fallback(&max_image, search.as_ref(), opts, win)
+                        .map_err(|faint| format!("{why}; as a faint disk: {faint}"))
+                })
+                .map_err(|why| Error::SphereNotFound {
                     what,
                     reason: format!("{reason}; from contrast edges: {why}"),
                     fix,
-                }
-            })
+                })
         }
         other => other,
     }?;
@@ -200,6 +203,31 @@ fn contrast_fallback(
         rim_blur_px: None,
         fitted_on: "edge points",
         max_image: stack.max_image(),
+    })
+}
+
+/// Step 6b of the module docs (module `faint`), as a [`Detection`].
+fn faint_fallback(
+    max_image: &GrayImage,
+    mask: Option<&Mask>,
+    opts: &DetectOptions,
+    win: (usize, usize, usize, usize),
+) -> std::result::Result<Detection, String> {
+    let (values, keep) = window_values(max_image, mask, win);
+    let disk = faint::find(&values, &keep, (win.2, win.3), opts)?;
+    Ok(Detection {
+        circle: Circle {
+            cx: disk.circle.cx + win.0 as f64,
+            cy: disk.circle.cy + win.1 as f64,
+            radius: disk.circle.radius,
+        },
+        rms_residual_px: disk.rms_residual_px,
+        inliers: disk.inliers,
+        edge_points: disk.boundary,
+        uncertainty_px: faint::uncertainty(&disk),
+        rim_blur_px: None,
+        fitted_on: "faint disk",
+        max_image: max_image.clone(),
     })
 }
 

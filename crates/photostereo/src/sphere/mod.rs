@@ -35,6 +35,13 @@
 //!    stretch then leaves a dim rim (a rough metal's, a few grey levels above it in 8
 //!    bits) without contrast.
 //!
+//!    6b. **The faint disk** (module `faint`): when the contrast edges fail too, the
+//!    maximum image is thresholded halfway between its background level and each of
+//!    the next few values present in it; the first largest component that is a disk
+//!    gives the circle from its moments (centroid, √(area/π)). A rough metal under
+//!    lights near the view axis, through an 8-bit camera with blur and a black level,
+//!    shows its rim only one grey level above the background in the maximum image.
+//!
 //! 7. **The rim model** (module `rim`, [`DetectOptions::rim_model`], on by default):
 //!    the circle of steps 3–6 is refined by fitting the image near the rim with a
 //!    blurred profile (background | a₀ + a₁√s + a₂s inside, Gaussian blur σ fitted),
@@ -83,6 +90,7 @@ pub mod checks;
 mod contrast;
 mod detect;
 mod edges;
+mod faint;
 pub mod fit;
 pub mod litarc;
 mod overlay;
