@@ -119,7 +119,7 @@ fn bench(cr: &mut Criterion) {
             let ev = spatial::info::from_table(
                 &c.target,
                 &c.mask,
-                &c.table,
+                &spatial::info::Reflectance::new(&c.table, &noise),
                 &out.normals,
                 None,
                 (&noise, &censor),

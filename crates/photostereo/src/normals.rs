@@ -224,8 +224,9 @@ fn after_lookup(
                 .as_ref()
                 .map_or(lut::Options::default().shadow_level, |o| o.shadow_level);
             let model = (&noise, &censor);
+            let refl = spatial::info::Reflectance::new(table, &noise);
             let ev =
-                spatial::info::from_table(stack, mask, table, &out.normals, albedo, model, level);
+                spatial::info::from_table(stack, mask, &refl, &out.normals, albedo, model, level);
             out.normals_sigma = Some(ev.sigma_deg(mask));
             out.noise = Some(noise);
         }

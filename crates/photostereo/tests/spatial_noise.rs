@@ -155,7 +155,7 @@ fn angular_standard_error_is_the_error_of_an_efficient_estimator() {
     let ev = spatial::info::from_table(
         &case.target,
         &case.mask,
-        &table,
+        &spatial::info::Reflectance::new(&table, &noise),
         &lk.normals,
         None,
         (

@@ -117,7 +117,7 @@
 //!
 //! The table itself (building, file format) is in [`table`] and [`format`](mod@format).
 
-mod fit;
+pub(crate) mod fit;
 mod options;
 pub mod outline;
 mod output;

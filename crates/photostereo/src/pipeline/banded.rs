@@ -26,6 +26,7 @@ use crate::error::Result;
 use crate::image::{GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
 use crate::io::{self, DatasetBands};
 use crate::progress::{NoProgress, Progress};
+use crate::spatial::info::Reflectance;
 use crate::spatial::{self, info::Evidence, Censor, NoiseModel, NoiseSampler};
 
 /// The sensor's evidence model: the noise and the censoring bounds of the capture.
@@ -389,6 +390,8 @@ fn spatial_pass(
     let model = (&noise, &censor);
     // taken out of the estimate while the stage borrows both (no second copy)
     let albedo = est.albedo.take();
+    let refl = spatial::info::Reflectance::new(table, &noise);
+    let table = &refl;
     let info = match &opts.spatial {
         None => {
             let level = opts.lookup.shadow_level;
@@ -418,7 +421,7 @@ fn spatial_pass(
 /// A capture's own data read again by row bands for the spatial stage.
 struct BandData<'a> {
     cap: &'a mut Capture,
-    tp: (&'a lut::Table, Model<'a>, f32),
+    tp: (&'a Reflectance<'a>, Model<'a>, f32),
     matches: (&'a NormalMap, Option<&'a GrayImage>),
     progress: &'a dyn Progress,
 }
@@ -442,7 +445,7 @@ impl spatial::OwnData for BandData<'_> {
 /// bands that hold them (then the evidence returned is empty).
 fn evidence(
     cap: &mut Capture,
-    (table, model, level): (&lut::Table, Model, f32),
+    (table, model, level): (&Reflectance, Model, f32),
     (normals, albedo): (&NormalMap, Option<&GrayImage>),
     mut only: Option<(&[bool], &mut Evidence)>,
     progress: &dyn Progress,
@@ -499,7 +502,7 @@ fn evidence(
 /// only the bands that hold such pixels.
 fn own_cost_rise(
     cap: &mut Capture,
-    (table, model, level): (&lut::Table, Model, f32),
+    (table, model, level): (&Reflectance, Model, f32),
     ((matches, solution), albedo): ((&NormalMap, &NormalMap), Option<&GrayImage>),
     moved: &[bool],
     progress: &dyn Progress,

@@ -248,11 +248,12 @@ pub fn solve_lookup(
     let level = opts.shadow_level;
     let censor = Censor::new(stack, mask, noise.step);
     let model = (noise, &censor);
-    let ev = info::from_table(stack, mask, table, normals, albedo, model, level);
+    let refl = info::Reflectance::new(table, noise);
+    let ev = info::from_table(stack, mask, &refl, normals, albedo, model, level);
     let mut data = HeldData {
         stack,
         mask,
-        table,
+        table: &refl,
         matches: (normals, albedo),
         model,
         level,
@@ -264,7 +265,7 @@ pub fn solve_lookup(
 struct HeldData<'a> {
     stack: &'a ImageStack,
     mask: &'a Mask,
-    table: &'a Table,
+    table: &'a info::Reflectance<'a>,
     matches: (&'a NormalMap, Option<&'a GrayImage>),
     model: (&'a NoiseModel, &'a Censor),
     level: f32,

@@ -74,7 +74,7 @@ const HOLD: f64 = 0.0524;
 const SECTOR_PX: f64 = 8.0;
 /// Samples below this fraction of the table's peak count as unlit (a rough metal's
 /// rim holds about 0.5% of the peak: 1% left most of its lights out of the fit).
-const DARK: f32 = 0.001;
+pub(crate) const DARK: f32 = 0.001;
 /// Gauss–Newton iterations of a rim fit.
 const ITERATIONS: usize = 8;
 /// Steps of the scan of θ that starts a rim fit.
