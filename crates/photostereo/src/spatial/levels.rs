@@ -5,7 +5,8 @@
 //! Δ: in each image the smallest positive difference between two distinct sample values
 //! of the mask (all levels are multiples of Δ, and a natural image uses neighbouring
 //! levels), from a regular subsample of at most [`MAX_STEP_SAMPLES`] mask pixels; the
-//! median over the images that have two distinct values, 0 when none has. Float images
+//! median over the images that have at least [`MIN_DISTINCT`] distinct values, 0 when
+//! none has (no quantisation floor, no censoring: nothing measured it). Float images
 //! give a negligible Δ.
 //!
 //! Everything here is accumulated by row bands ([`Levels::feed`]), so that a capture
@@ -18,6 +19,12 @@ use crate::image::{ImageStack, Mask};
 /// step found may be a few Δ, still a negligible floor), and at most 200 KB per image
 /// held by the banded run's sampler (compacted as it goes).
 pub const MAX_STEP_SAMPLES: usize = 50_000;
+
+/// An image with fewer distinct values in the mask says nothing about the step: a
+/// render of flat faces has three (a 16-bit V-groove's smallest difference was 478
+/// levels, taken for the step: every sample then looked ±138 levels noisy, and the faces,
+/// each at its image's smallest value, were censored as the floor).
+pub const MIN_DISTINCT: usize = 16;
 
 /// The levels of the `mask` samples, fed by row bands, top to bottom.
 #[derive(Clone, Debug)]
@@ -106,6 +113,9 @@ impl Levels {
             .filter_map(|(v, _)| {
                 let mut v = v.clone();
                 sort_dedup(&mut v);
+                if v.len() < MIN_DISTINCT {
+                    return None;
+                }
                 v.windows(2)
                     .map(|w| w[1] - w[0])
                     .filter(|&d| d > 0.0)
@@ -216,6 +226,22 @@ mod tests {
         assert!(c.holds(0, 0.0, 0.0) && !c.holds(0, 0.0, 3.0 * step));
         assert!(c.holds(0, 1.0 / 0.7, 1.5) && !c.holds(0, 1.0 / 0.7, 1.0));
         assert!(!c.holds(0, 0.5, 0.5));
+    }
+
+    #[test]
+    fn a_few_valued_image_does_not_measure_the_step() {
+        // three flat faces of a 16-bit render: 634 levels between the closest two
+        let (w, h) = (30, 10);
+        let mut s = ImageStack::zeros(w, h, 1);
+        for (i, v) in s.data.iter_mut().enumerate() {
+            *v = [906.0, 1540.0, 22371.0][(i % w) / 10] / 65535.0;
+        }
+        let lv = Levels::of(&s, &Mask::full(w, h));
+        assert_eq!(lv.step(), 0.0);
+        // no step, so nothing is censored: a face at its image's smallest value measures
+        let c = lv.censor(0.0);
+        assert!(!c.holds(0, 906.0 / 65535.0, 906.0 / 65535.0 + 1e-3));
+        assert!(c.high[0].is_infinite());
     }
 
     #[test]
