@@ -101,8 +101,8 @@ pub struct Reflectance<'a> {
 impl<'a> Reflectance<'a> {
     /// The table with its rim model (fitted as the lookup fits it: the same model the
     /// lookup extrapolated with) where the capture's noise floor σ(0) is below the
-    /// model's own floor, [`DARK`] of the table's peak (samples under it were left out
-    /// of the model's fit as unlit); else the table clamped to its edge.
+    /// model's own floor, 0.1% of the table's peak (`lut`'s `DARK`: samples under it
+    /// were left out of the model's fit as unlit); else the table clamped to its edge.
     ///
     /// Why the gate: a rough metal's rim model rises towards grazing view, so a pixel
     /// matched there gets a confident quadratic. Where its match is right (clean 16-bit
@@ -118,16 +118,6 @@ impl<'a> Reflectance<'a> {
             table,
             rim: if clean { Rim::fit(table) } else { None },
         }
-    }
-
-    /// The table alone, clamped to its edge past its last clean ring.
-    pub fn clamped(table: &'a Table) -> Self {
-        Reflectance { table, rim: None }
-    }
-
-    /// Whether the rim model is used past the table's last clean ring.
-    pub fn extended(&self) -> bool {
-        self.rim.is_some()
     }
 }
 

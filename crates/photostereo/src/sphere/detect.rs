@@ -2,7 +2,7 @@
 //! maximum image (or the contrast fallback), refined on the rim, with the checks of
 //! its size, inliers and region.
 
-use super::fit::{self, fit_robust, FitOptions};
+use super::fit::{self, fit_robust};
 use super::{contrast, edges, faint, rim, Circle, DetectOptions, Detection};
 use crate::error::{Error, Result, Setting};
 use crate::image::{GrayImage, ImageStack, Mask};
@@ -231,10 +231,6 @@ fn faint_fallback(
     })
 }
 
-/// Percentile of the searched mean values taken as the background's level (the
-/// corners of a window around the sphere are about a fifth of it).
-const BACKGROUND_PERCENTILE: f64 = 0.02;
-
 /// The mean over the K images in the window `win` (row-major; non-finite samples count
 /// as 0) and whether each pixel is searched (inside `mask`).
 fn window_mean(
@@ -255,21 +251,10 @@ fn window_mean(
     (mean, keep)
 }
 
-/// The background's level in the mean image: the [`BACKGROUND_PERCENTILE`] of its
+/// The background's level in the mean image: [`faint::background_percentile`] of its
 /// searched values (0 when none is positive).
 fn background_level(mean: &[f32], keep: &[bool]) -> f32 {
-    let mut v: Vec<f32> = mean
-        .iter()
-        .zip(keep)
-        .filter(|(m, &k)| k && m.is_finite())
-        .map(|(m, _)| *m)
-        .collect();
-    if v.is_empty() {
-        return 0.0;
-    }
-    let i = ((v.len() - 1) as f64 * BACKGROUND_PERCENTILE) as usize;
-    let (_, p, _) = v.select_nth_unstable_by(i, f32::total_cmp);
-    p.max(0.0)
+    faint::background_percentile(mean, keep).map_or(0.0, |p| p.max(0.0))
 }
 
 /// Steps 2–5 of the module docs on `image` (the maximum image or a mask outline).
@@ -283,11 +268,7 @@ fn detect_blob(
     let (x0, y0) = (win.0, win.1);
     let crop = Crop::new(image, mask, win)?;
     let points = crop.edge_points()?;
-    let fit_opts = FitOptions {
-        ransac_iterations: opts.ransac_iterations,
-        inlier_tol_px: opts.inlier_tol_px,
-        ..FitOptions::default()
-    };
+    let fit_opts = opts.circle_fit();
     let fit = fit_robust(&points, &fit_opts)?;
     let inliers = fit.inlier_count();
     let mut circle = fit.circle;

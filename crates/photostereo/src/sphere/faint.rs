@@ -20,10 +20,11 @@
 //! the threshold, which is inside the true rim by the distance over which the rim's
 //! signal falls to half a level (step 7, the rim model, refines it where it can).
 
-use super::fit::{fit_robust, FitOptions};
+use super::fit::fit_robust;
 use super::{edges, Circle, DetectOptions};
 
-/// Percentile of the window's maximum-image values taken as the background's level.
+/// Percentile of a window's values taken as the background's level (the corners of a
+/// window around the sphere are about a fifth of it).
 const BACKGROUND_PERCENTILE: f64 = 0.02;
 
 /// Number of thresholds tried above the background level.
@@ -80,20 +81,32 @@ pub(crate) fn find(
     ))
 }
 
-/// The background's level and the next [`LEVELS`] distinct values above it, ascending.
-fn levels_above_background(values: &[f32], keep: &[bool]) -> Vec<f32> {
-    let mut v: Vec<f32> = values
+/// The [`BACKGROUND_PERCENTILE`] of the searched (`keep`) finite `values`; `None` when
+/// none is searched. Also the contrast fallback's background level (module `detect`).
+pub(super) fn background_percentile(values: &[f32], keep: &[bool]) -> Option<f32> {
+    let mut v: Vec<f32> = searched(values, keep).collect();
+    if v.is_empty() {
+        return None;
+    }
+    let i = ((v.len() - 1) as f64 * BACKGROUND_PERCENTILE) as usize;
+    Some(*v.select_nth_unstable_by(i, f32::total_cmp).1)
+}
+
+/// The searched finite values.
+fn searched<'v>(values: &'v [f32], keep: &'v [bool]) -> impl Iterator<Item = f32> + 'v {
+    values
         .iter()
         .zip(keep)
         .filter(|(x, &k)| k && x.is_finite())
         .map(|(x, _)| *x)
-        .collect();
-    if v.is_empty() {
+}
+
+/// The background's level and the next [`LEVELS`] distinct values above it, ascending.
+fn levels_above_background(values: &[f32], keep: &[bool]) -> Vec<f32> {
+    let Some(floor) = background_percentile(values, keep) else {
         return Vec::new();
-    }
-    let i = ((v.len() - 1) as f64 * BACKGROUND_PERCENTILE) as usize;
-    let (_, &mut floor, _) = v.select_nth_unstable_by(i, f32::total_cmp);
-    let mut above: Vec<f32> = v.into_iter().filter(|&x| x > floor).collect();
+    };
+    let mut above: Vec<f32> = searched(values, keep).filter(|&x| x > floor).collect();
     above.sort_unstable_by(f32::total_cmp);
     above.dedup();
     above.truncate(LEVELS);
@@ -114,11 +127,7 @@ fn disk_of(
         .into_iter()
         .map(|(r, c)| [c as f64 + 0.5, r as f64 + 0.5])
         .collect();
-    let fit_opts = FitOptions {
-        ransac_iterations: opts.ransac_iterations,
-        inlier_tol_px: opts.inlier_tol_px,
-        ..FitOptions::default()
-    };
+    let fit_opts = opts.circle_fit();
     let fit = fit_robust(&boundary, &fit_opts).map_err(|e| e.to_string())?;
     let inliers = fit.inlier_count();
     if (inliers as f64) < opts.min_inlier_fraction * boundary.len() as f64 {

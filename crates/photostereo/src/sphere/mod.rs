@@ -202,6 +202,15 @@ impl Default for DetectOptions {
 }
 
 impl DetectOptions {
+    /// The robust circle fit's settings taken from these options.
+    pub(crate) fn circle_fit(&self) -> fit::FitOptions {
+        fit::FitOptions {
+            ransac_iterations: self.ransac_iterations,
+            inlier_tol_px: self.inlier_tol_px,
+            ..fit::FitOptions::default()
+        }
+    }
+
     /// The mask the sphere is searched in: [`DetectOptions::mask`] when given, else the
     /// sphere folder's mask (`folder_mask`, its `mask.png`) unless a search window
     /// ([`DetectOptions::region`]) is given. With a window the sphere shares its images
