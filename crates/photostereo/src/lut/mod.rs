@@ -57,7 +57,8 @@
 //!    t/‖t‖ against I/‖I‖); c, the albedo of the target relative to the sphere, is
 //!    returned in [`Output::albedo`]. Without it c = 1 (same albedo as the sphere).
 //! 4. **Cast shadows.** A light is dropped when the target is dark there
-//!    (t_i < `shadow_level` · c · peak, peak = the table's brightest sample) while the
+//!    (t_i − f_i < `shadow_level` · c · peak, peak = the table's brightest sample, f_i
+//!    the light's floor: the camera's black level, [`Table::floors`]) while the
 //!    match is clearly lit (p_i > t_i + that level); the match is then redone on the
 //!    remaining lights (up to 3 rounds): a pattern descent and Gauss–Newton from the
 //!    current match, kept when it passes the coherence test above, else an exhaustive

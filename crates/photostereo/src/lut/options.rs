@@ -27,7 +27,8 @@ pub struct Options {
     /// sphere's); the albedo ratio is returned. Default false.
     pub normalize: bool,
     /// Dark level as a fraction of the match's brightness (c × the table's brightest
-    /// sample): target samples below it count as unlit / shadowed. Default 0.03.
+    /// sample): target samples less than this above the light's floor (the black
+    /// level, `Table::floors`) count as unlit / shadowed. Default 0.03.
     pub shadow_level: f32,
     /// Fewer lit lights than this gives a confidence ≤ 0.25. Default 3.
     pub min_lit_lights: usize,

@@ -96,6 +96,9 @@ pub struct Reflectance<'a> {
     pub table: &'a Table,
     /// The rim model (`None`: the table clamped to its edge, as before it existed).
     rim: Option<Rim>,
+    /// Each light's floor (`Table::floors`): the cast-shadow test measures "dark" above
+    /// it, as the lookup does.
+    floors: Vec<f32>,
 }
 
 impl<'a> Reflectance<'a> {
@@ -117,13 +120,15 @@ impl<'a> Reflectance<'a> {
         Reflectance {
             table,
             rim: if clean { Rim::fit(table) } else { None },
+            floors: table.floors(),
         }
     }
 }
 
 /// Evidence of a lookup: `normals` from [`crate::lut::solve`] with `table`, `albedo` its
 /// albedo ratio (normalised matching) or `None` (c = 1). Lights the lookup would treat as
-/// cast-shadowed (t_k below `shadow_level` · c · peak while the match is lit) are left out.
+/// cast-shadowed (t_k within `shadow_level` · c · peak of its floor, the black level, while
+/// the match is lit) are left out.
 pub fn from_table(
     stack: &ImageStack,
     mask: &Mask,
@@ -205,6 +210,8 @@ struct TablePixel<'a> {
     table: &'a Table,
     /// The rim model and the n_z of the table's last clean ring, below which it is used.
     rim: Option<(&'a Rim, f32)>,
+    /// Each light's floor (black level).
+    floors: &'a [f32],
     noise: &'a NoiseModel,
     censor: &'a Censor,
     shadow_level: f32,
@@ -329,6 +336,7 @@ impl<'a> TablePixel<'a> {
         TablePixel {
             table,
             rim,
+            floors: &refl.floors,
             noise,
             censor,
             shadow_level,
@@ -386,7 +394,7 @@ impl<'a> TablePixel<'a> {
         for i in 0..k {
             let pred = scale * v[i];
             let ti = if t[i].is_finite() { t[i] } else { 0.0 };
-            if ti < level && pred > ti + level {
+            if ti - self.floors[i] < level && pred > ti + level {
                 continue; // cast shadow, as the lookup would treat it
             }
             if self.censor.holds(i, ti, pred) {

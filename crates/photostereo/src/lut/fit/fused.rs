@@ -379,11 +379,12 @@ impl<'a> Single<'a> {
         p
     }
 
-    /// Whether some light is dark in the target `t` (below `level`) but lit in the model
-    /// c·I of the last evaluation (above t + `level`): the test of a cast shadow.
-    pub fn any_dark_lit(&self, t: &[f32], c: f32, level: f32, b: &Buf) -> bool {
-        t.iter().zip(&b.v).fold(false, |any, (&t, &v)| {
-            any | ((t < level) & (c * v > t + level))
+    /// Whether some light is dark in the target `t` (within `level` of its floor in
+    /// `floors`, the black level) but lit in the model c·I of the last evaluation (above
+    /// t + `level`): the test of a cast shadow.
+    pub fn any_dark_lit(&self, t: &[f32], floors: &[f32], c: f32, level: f32, b: &Buf) -> bool {
+        (t.iter().zip(floors).zip(&b.v)).fold(false, |any, ((&t, &floor), &v)| {
+            any | ((t - floor < level) & (c * v > t + level))
         })
     }
 

@@ -218,6 +218,8 @@ pub(crate) struct Solver<'a> {
     coarse_step: f64,
     /// Brightness scale of each table (largest sample).
     peaks: [f32; 2],
+    /// Each light's floor (black level), padded with zeros: "dark" is measured above it.
+    floors: &'a [f32],
     /// The table's extension past its last clean ring (one table, refined lookup).
     rim: Option<RimGate<'a>>,
     /// Isolation radius of each entry as f32 bits, computed when first needed
@@ -252,6 +254,7 @@ impl<'a> Solver<'a> {
             coarse_basis: &prep.coarse_basis,
             coarse_step: prep.coarse_step,
             peaks: prep.peaks,
+            floors: &prep.floors,
             rim,
             isolation: &prep.isolation,
             mixture: prep.mixture.as_ref(),
@@ -652,7 +655,9 @@ impl<'a> Solver<'a> {
         let rms_r = (fit.cost.max(0.0) / used).sqrt();
         let rms_t = (energy / used).sqrt();
         let level = self.level(&fit);
-        let lit = t.iter().filter(|&&v| v >= level && v > 0.0).count();
+        let lit = (t.iter().zip(self.floors))
+            .filter(|&(&v, &floor)| v - floor >= level && v > floor)
+            .count();
         let rel = if rms_t > 0.0 {
             rms_r / rms_t
         } else {

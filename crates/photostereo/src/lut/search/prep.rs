@@ -21,6 +21,9 @@ pub(crate) struct Prep {
     pub(super) coarse_basis: [Vec<f32>; 2],
     pub(super) coarse_step: f64,
     pub(super) peaks: [f32; 2],
+    /// Each light's floor (`Table::floors`; the smaller of two tables'), padded with
+    /// zeros to the fast path's lane width.
+    pub(super) floors: Vec<f32>,
     /// Isolation radius of each entry as f32 bits, [`UNSET`] until computed (lazily by
     /// the certificate, or all at once by [`Prep::fill_isolation`]).
     pub(super) isolation: Vec<AtomicU32>,
@@ -57,6 +60,14 @@ impl Prep {
             },
         );
         let peaks = [t0.peak(), model.tables.get(1).map_or(0.0, |t| t.peak())];
+        let mut floors = t0.floors();
+        if let Some(t1) = model.tables.get(1) {
+            floors
+                .iter_mut()
+                .zip(t1.floors())
+                .for_each(|(a, b)| *a = a.min(b));
+        }
+        floors.resize(super::fused::padded(k), 0.0);
         let ws = &t0.window.stack;
         let mut entries_at = vec![u32::MAX; ws.width * ws.height];
         for (e, [r, c]) in t0.entries.pixels.iter().enumerate() {
@@ -72,6 +83,7 @@ impl Prep {
             coarse_basis,
             coarse_step,
             peaks,
+            floors,
             isolation: (0..n).map(|_| AtomicU32::new(UNSET)).collect(),
             mixture,
         }

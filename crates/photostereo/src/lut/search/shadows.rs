@@ -13,7 +13,8 @@ impl Solver<'_> {
         let k = self.model.k;
         if let (Some(single), true) = (&self.single, wk.fresh) {
             // the first round's test on the fast path's buffer: usually nothing to drop
-            if !single.any_dark_lit(&wk.t, fit.coef[0], self.level(&fit), &wk.b) {
+            let level = self.level(&fit);
+            if !single.any_dark_lit(&wk.t, self.floors, fit.coef[0], level, &wk.b) {
                 return (fit, 0);
             }
         }
@@ -24,7 +25,7 @@ impl Solver<'_> {
             let mut new = false;
             let (t, w, pred) = (&wk.t[..k], &mut wk.w[..k], &wk.s.pred[..k]);
             for i in 0..k {
-                if w[i] > 0.0 && t[i] < level && pred[i] > t[i] + level {
+                if w[i] > 0.0 && self.dark_lit(i, t[i], pred[i], level) {
                     w[i] = 0.0;
                     shadowed += 1;
                     new = true;
@@ -36,6 +37,13 @@ impl Solver<'_> {
             fit = self.masked_search(fit, wk);
         }
         (fit, shadowed)
+    }
+
+    /// Light `i` is cast-shadowed: the target's sample `t` is within `level` of the
+    /// light's floor (black level) while the model's `pred` is lit above it.
+    #[inline]
+    fn dark_lit(&self, i: usize, t: f32, pred: f32, level: f32) -> bool {
+        t - self.floors[i] < level && pred > t + level
     }
 
     /// Dark level of `fit` whose model tuple is in `wk.s.pred`.
@@ -78,7 +86,7 @@ impl Solver<'_> {
             let (t, w, pred) = (&wk.t[..k], &mut wk.w[..k], &wk.s.pred[..k]);
             let (mut changed, mut shadowed) = (false, 0u16);
             for i in 0..k {
-                let lit = !(t[i] < level && pred[i] > t[i] + level);
+                let lit = !self.dark_lit(i, t[i], pred[i], level);
                 changed |= lit != (w[i] > 0.0);
                 w[i] = if lit { 1.0 } else { 0.0 };
                 shadowed += (!lit) as u16;

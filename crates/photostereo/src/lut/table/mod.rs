@@ -112,6 +112,10 @@ pub struct Table {
 /// Smallest number of lights a table accepts.
 pub const MIN_LIGHTS: usize = 3;
 
+/// Largest black level, as a fraction of the table's peak, that [`Table::floors`] takes
+/// a light's darkest sample for (cameras' black levels are a few percent of full scale).
+pub const MAX_FLOOR: f32 = 0.1;
+
 impl Table {
     /// Build the table from the K calibration images and the sphere's circle.
     ///
@@ -244,6 +248,32 @@ impl Table {
     /// Largest distance (pixels) from the circle centre the solver may move to.
     pub fn search_radius(&self) -> f64 {
         self.circle.radius - self.rim
+    }
+
+    /// Each light's floor: the darkest sample of its entries, the camera's black level
+    /// where part of the sphere is unlit (0 on a capture without one). A minimum above
+    /// [`MAX_FLOOR`] of the peak is light, not a black level (a light near the view axis
+    /// lights the whole table), and gives 0. The cast-shadow test measures "dark" above
+    /// this floor: with a 3% black level every unlit sample sat at the dark level itself
+    /// and no cast shadow was found.
+    pub fn floors(&self) -> Vec<f32> {
+        let k = self.k;
+        let mut low = vec![f32::INFINITY; k];
+        for tuple in self.entries.tuples.chunks_exact(k.max(1)) {
+            for (m, &v) in low.iter_mut().zip(tuple) {
+                *m = m.min(v);
+            }
+        }
+        let cap = MAX_FLOOR * self.peak();
+        low.iter()
+            .map(|&m| {
+                if m.is_finite() && m > 0.0 && m <= cap {
+                    m
+                } else {
+                    0.0
+                }
+            })
+            .collect()
     }
 
     /// Largest sample of any entry (the table's brightness scale).
