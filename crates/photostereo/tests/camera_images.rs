@@ -5,19 +5,10 @@
 //! the lookup alone (`normals --no-spatial`) and the default pipeline (`normals`), with
 //! the true circle and with the circle found by the sphere detection.
 
-use photostereo::lut::{self, BuildOptions, Method, Table};
-use photostereo::progress::NoProgress;
-use photostereo::sphere::{self, Circle, DetectOptions};
+mod common;
+use common::camera_case::{camera, check, measure, Case};
+use photostereo::sphere::Circle;
 use photostereo::synth::{self, Camera, Material, SceneOptions, Shape, ShapeKind};
-use photostereo::{eval, spatial, ImageStack, Mask, NormalMap};
-
-struct Case {
-    sphere: ImageStack,
-    truth_circle: Circle,
-    target: ImageStack,
-    mask: Mask,
-    truth: NormalMap,
-}
 
 /// Target and sphere of `material` through `camera`, exposed so that the brightest
 /// highlight of both is at full scale (`synth --exposure peak`).
@@ -62,103 +53,6 @@ fn render_shape(
         mask: target.mask,
         truth: target.normals,
     }
-}
-
-fn camera(bits: u32, blur_sigma: f32, black_level: f32) -> Camera {
-    Camera {
-        bits: Some(bits),
-        blur_sigma,
-        black_level,
-    }
-}
-
-fn mean_error(n: &NormalMap, case: &Case) -> f64 {
-    eval::angular_errors(n, &case.truth, &case.mask)
-        .unwrap()
-        .mean
-}
-
-/// Mean errors (degrees) of one table on one case.
-#[derive(Debug)]
-struct Row {
-    nearest: f64,
-    idw6: f64,
-    lookup: f64,
-    spatial: f64,
-    stats: spatial::Stats,
-}
-
-fn measure(case: &Case, circle: &Circle) -> Row {
-    let table = Table::build(&case.sphere, circle, &BuildOptions::default()).unwrap();
-    let tables = std::slice::from_ref(&table);
-    let solve = |method: Method| {
-        let opts = lut::Options {
-            method,
-            ..lut::Options::default()
-        };
-        lut::solve(&case.target, &case.mask, tables, &opts, &NoProgress).unwrap()
-    };
-    let out = solve(Method::Refined);
-    let noise = spatial::NoiseModel::estimate(&case.target, &case.mask);
-    let opts = spatial::Options::default();
-    let sp = spatial::solve_table(&case.target, &case.mask, &table, &out, &noise, &opts).unwrap();
-    Row {
-        nearest: mean_error(&solve(Method::Nearest).normals, case),
-        idw6: mean_error(
-            &solve(Method::InverseDistance { neighbours: 6 }).normals,
-            case,
-        ),
-        lookup: mean_error(&out.normals, case),
-        spatial: mean_error(&sp.normals, case),
-        stats: sp.stats,
-    }
-}
-
-/// (row with the true circle, row with the circle found, circle found).
-fn both(name: &str, case: &Case) -> (Row, Row, Circle) {
-    let found = sphere::detect(&case.sphere, &DetectOptions::default())
-        .unwrap()
-        .circle;
-    let (t, f) = (measure(case, &case.truth_circle), measure(case, &found));
-    for (what, r) in [("true circle", &t), ("circle found", &f)] {
-        println!(
-            "{name}, {what}: nearest {:.3}°, 6-NN IDW {:.3}°, lookup (--no-spatial) {:.4}°, \
-             default {:.4}° ({} of {} px decided by neighbours, {} cuts, {} kept their own)",
-            r.nearest,
-            r.idw6,
-            r.lookup,
-            r.spatial,
-            r.stats.decided_by_neighbours,
-            r.stats.pixels,
-            r.stats.cut_triples,
-            r.stats.kept_own
-        );
-    }
-    let c = &case.truth_circle;
-    println!(
-        "{name}: circle found off by centre {:.3} px, radius {:+.3} px",
-        ((found.cx - c.cx).powi(2) + (found.cy - c.cy).powi(2)).sqrt(),
-        found.radius - c.radius
-    );
-    (t, f, found)
-}
-
-/// The issue's rules on one case: the default is never worse than the lookup alone by
-/// more than 2%, beats the plain nearest neighbour, and is within `bound` degrees of the
-/// truth with either circle; the circle is found within 0.1 px (centre) / 0.15 px
-/// (radius).
-fn check(name: &str, case: &Case, bound: f64) {
-    let (t, f, found) = both(name, case);
-    for r in [&t, &f] {
-        assert!(
-            r.spatial <= 1.02 * r.lookup,
-            "default worse than --no-spatial: {r:?}"
-        );
-        assert!(r.spatial < r.nearest && r.spatial < bound, "{r:?}");
-    }
-    let c = &case.truth_circle;
-    assert!(((found.cx - c.cx).powi(2) + (found.cy - c.cy).powi(2)).sqrt() < 0.1);
-    assert!((found.radius - c.radius).abs() < 0.15);
 }
 
 // Measured 2026-12-03 (true circle / circle found), default against `--no-spatial`;

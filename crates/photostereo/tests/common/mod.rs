@@ -8,6 +8,7 @@
 //! * [`solve3`]: a 3 × 3 linear solve for fitting truths.
 #![allow(dead_code)]
 
+pub mod camera_case;
 pub mod fuzz;
 pub mod interreflect_scene;
 pub mod lut_scene;

@@ -1,0 +1,163 @@
+//! Images as cameras make them (issue 24) on renders the project did not make: Mitsuba 3's
+//! rough aluminium (`tests/data/mitsuba_conductor`, the material of the issue's hidden
+//! metal) and the shared Lambertian and rough plastic (`../shared/data`), sphere r = 100
+//! → bumpy blob, 20 lights. Both folders are exposed for the brightest highlight of the
+//! two and put through the camera model of `synth::camera` (8-bit, blur, black level,
+//! noise); each case is scored by `common::camera_case::check` (the default never worse
+//! than the lookup alone by more than 2%, better than the nearest neighbour, within a
+//! bound, circle found within 0.1 / 0.15 px). The shared cases skip when `../shared` is
+//! absent.
+
+mod common;
+use common::camera_case::{camera, check, check_within, Case};
+use common::resample::rescale;
+use photostereo::io::{self, LoadOptions};
+use photostereo::sphere::Circle;
+use photostereo::synth::{camera::develop, Camera};
+use photostereo::ImageStack;
+use std::path::{Path, PathBuf};
+
+const CIRCLE: Circle = Circle {
+    cx: 128.0,
+    cy: 128.0,
+    radius: 100.0,
+};
+
+fn conductor_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitsuba_conductor")
+}
+
+/// Sphere and target folders as a case, scaled so that the brightest sample of both is 1
+/// (full scale): the exposure for the peak.
+fn load(sphere_dir: &Path, target_dir: &Path) -> Case {
+    let load = |d: &Path| io::load_dataset(d, &LoadOptions::default()).unwrap();
+    let (sphere, target) = (load(sphere_dir), load(target_dir));
+    let truth = io::read_normals_npy(&target_dir.join("normal_gt.npy")).unwrap();
+    let peak = |s: &ImageStack| s.data.iter().fold(0.0f32, |m, &v| m.max(v));
+    let gain = 1.0 / peak(&sphere.stack).max(peak(&target.stack));
+    let mut case = Case {
+        sphere: sphere.stack,
+        truth_circle: CIRCLE,
+        target: target.stack,
+        mask: target.mask.unwrap(),
+        truth,
+    };
+    for s in [&mut case.sphere, &mut case.target] {
+        s.data.iter_mut().for_each(|v| *v *= gain);
+    }
+    case
+}
+
+fn conductor() -> Case {
+    let d = conductor_dir();
+    load(&d.join("sphere"), &d.join("target"))
+}
+
+/// The shared render of `material` (`diffuse`, `roughplastic`); `None` (a recorded skip)
+/// without `../shared`.
+fn shared(test: &str, material: &str) -> Option<Case> {
+    let sphere = common::shared::path(test, &format!("data/calib_{material}"))?;
+    let target = common::shared::path(test, &format!("data/target_{material}"))?;
+    Some(load(&sphere, &target))
+}
+
+/// `case` through `camera` with Gaussian noise of `noise` (fraction of full scale);
+/// sphere and target get independent noise.
+fn develop_case(mut case: Case, camera: Camera, noise: f32) -> Case {
+    develop(&mut case.sphere, &camera, noise, 11);
+    develop(&mut case.target, &camera, noise, 12);
+    case
+}
+
+// Measured 2026-12-06 (true circle / circle found). Issue 24's targets for its hidden
+// rough aluminium: clean 16-bit < 0.15°, 8-bit < 1.0°, 8-bit blurred with a black level
+// < 1.2°, 1% noise < 2.0°, sphere at half size < 0.30°.
+
+#[test]
+fn conductor_16bit() {
+    // measured: nearest 0.752 / 0.751°, lookup 0.0238 / 0.0239°, default 0.0234 / 0.0235°
+    check("Mitsuba aluminium 16-bit", &conductor(), 0.05);
+}
+
+#[test]
+fn conductor_8bit_exposed_for_its_peak() {
+    // measured: nearest 1.167 / 1.168°, lookup 0.751 / 0.752°, default 0.342 / 0.339°
+    let case = develop_case(conductor(), camera(8, 0.0, 0.0), 0.0);
+    check("Mitsuba aluminium 8-bit", &case, 0.45);
+}
+
+#[test]
+fn conductor_8bit_blurred_with_black_level() {
+    // measured: nearest 1.082 / 1.056°, lookup 0.894 / 0.875°, default 0.475 / 0.478°;
+    // circle found 0.002 px off centre, radius −0.102 px
+    let case = develop_case(conductor(), camera(8, 0.8, 0.03), 0.0);
+    check("Mitsuba aluminium 8-bit blur 0.8 black 3%", &case, 0.6);
+}
+
+#[test]
+fn conductor_with_one_percent_noise() {
+    // Gaussian noise of 1% of full scale on sphere and target, 16-bit. measured:
+    // nearest 9.32 / 9.31°, lookup 8.63 / 8.64°, default 1.548 / 1.507°.
+    // The circle is checked within 0.2 px, not the 0.15 px issue 24 asks on its blurred
+    // 8-bit spheres: on this noisy rim the radius found is −0.166 px with this seed
+    // (+0.062 and +0.031 px with two others; at 2% noise no circle is found), a gap of
+    // the detector's maximum image under noise, left open (docs/accuracy.md).
+    let case = develop_case(conductor(), camera(16, 0.0, 0.0), 0.01);
+    check_within("Mitsuba aluminium 1% noise", &case, 1.8, [0.1, 0.2]);
+}
+
+#[test]
+fn conductor_sphere_at_half_size() {
+    // The sphere area-averaged to r = 50 about its centre; the target as rendered.
+    // measured: nearest 1.423 / 1.423°, lookup 0.0640 / 0.0620°, default 0.0637 / 0.0618°
+    let mut case = conductor();
+    case.sphere = rescale(&case.sphere, &CIRCLE, 0.5, 256, 256);
+    case.truth_circle = Circle {
+        radius: 50.0,
+        ..CIRCLE
+    };
+    check("Mitsuba aluminium, sphere r 50", &case, 0.1);
+}
+
+#[test]
+fn shared_plastic_8bit_blurred_with_black_level() {
+    // measured: nearest 0.530 / 0.545°, lookup 0.183 / 0.192°, default 0.167 / 0.178°
+    // (before the cast-shadow test measured "dark" above the black level: default 0.191°
+    // with the circle found); issue 24's target < 0.20°
+    let test = "shared_plastic_8bit_blurred_with_black_level";
+    let Some(case) = shared(test, "roughplastic") else {
+        return;
+    };
+    let case = develop_case(case, camera(8, 0.8, 0.03), 0.0);
+    check("Mitsuba plastic 8-bit blur 0.8 black 3%", &case, 0.20);
+}
+
+#[test]
+fn shared_lambertian_8bit_with_black_level() {
+    // The black level alone: every unlit sample sits at 8/255, above the dark level
+    // 0.03 × peak, so the cast-shadow test must measure "dark" above each light's floor
+    // (`lut::Table::floors`). measured: nearest 0.533 / 0.533°, lookup 0.0723 / 0.0723°,
+    // default 0.0629 / 0.0629° (before, circle found: lookup 0.137°, default 0.127°)
+    let test = "shared_lambertian_8bit_with_black_level";
+    let Some(case) = shared(test, "diffuse") else {
+        return;
+    };
+    let case = develop_case(case, camera(8, 0.0, 0.03), 0.0);
+    check("Mitsuba Lambertian 8-bit black 3%", &case, 0.09);
+}
+
+#[test]
+fn shared_lambertian_and_plastic_with_one_percent_noise() {
+    // Gaussian noise of 1% of full scale, 16-bit. measured: Lambertian nearest 0.665 /
+    // 0.664°, lookup 0.350 / 0.350°, default 0.143 / 0.142°; plastic nearest 0.820 /
+    // 0.821°, lookup 0.596 / 0.596°, default 0.221 / 0.221° (issue 24's targets on its
+    // hidden renders: < 0.22° and < 0.30°)
+    let test = "shared_lambertian_and_plastic_with_one_percent_noise";
+    for (material, bound) in [("diffuse", 0.17), ("roughplastic", 0.26)] {
+        let Some(case) = shared(test, material) else {
+            return;
+        };
+        let case = develop_case(case, camera(16, 0.0, 0.0), 0.01);
+        check(&format!("Mitsuba {material} 1% noise"), &case, bound);
+    }
+}
