@@ -361,10 +361,12 @@ fn outline_applies(searched: &[Table], opts: &Options) -> bool {
 }
 
 /// The outline pixel whose plain match is `plain` (tuple in `wk.t`), matched again on its
-/// tuple divided by the coverage its brightness-free match stands for (`outline.rs`),
-/// where that match fits clearly better: RMS residual below the plain one's by the factor
-/// [`outline::RESIDUAL_RATIO`] (a free brightness alone, on noise, lowers it by about
-/// 1/(2K)). `wo` holds the outline solver's own buffers (no warm start).
+/// tuple's light above each light's floor (the black level, which the background shows
+/// instead of 0) divided by the coverage its brightness-free match stands for
+/// (`outline.rs`), where that match fits clearly better: RMS residual below the plain
+/// one's by the factor [`outline::RESIDUAL_RATIO`] (a free brightness alone, on noise,
+/// lowers it by about 1/(2K)). `wo` holds the outline solver's own buffers (no warm
+/// start).
 fn coverage_refit(
     solver: &Solver,
     os: &Solver,
@@ -381,7 +383,7 @@ fn coverage_refit(
     if g >= 1.0 || !clearly_better {
         return plain;
     }
-    wk.t[..k].iter_mut().for_each(|v| *v /= g);
+    (wk.t[..k].iter_mut().zip(solver.floors)).for_each(|(v, &f)| *v = f + (*v - f) / g);
     solver.pixel(wk)
 }
 

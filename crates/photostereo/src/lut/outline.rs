@@ -11,8 +11,10 @@
 //! So an outline pixel (a mask pixel with one of its 4 neighbours inside the image and
 //! outside the mask) is matched also with a free brightness (normalised matching,
 //! c = ⟨t, I⟩/⟨I, I⟩); where that fits clearly better than the plain match
-//! ([`RESIDUAL_RATIO`]), its tuple is divided by c clamped to [`MIN_COVERAGE`, 1] and
-//! matched again ([`super::Options::outline_coverage`]). Measured 2026-12-05, default pipeline:
+//! ([`RESIDUAL_RATIO`]), its tuple's light above each light's floor f (the camera's black
+//! level, `Table::floors`: the background shows f, not 0) is divided by c clamped to
+//! [`MIN_COVERAGE`, 1], t' = f + (t − f)/c, and matched again
+//! ([`super::Options::outline_coverage`]). Measured 2026-12-05, default pipeline:
 //! `synth` GGX metal α 0.2 rendered at 4× and averaged over 4 × 4 sub-pixels (mask =
 //! coverage ≥ ½, table from a sphere made the same way): outline pixels 4.85° → 0.46°,
 //! whole mask 0.112° → 0.020°; Mitsuba `target_diffuse` (table on the circle found)

@@ -218,8 +218,9 @@ pub(crate) struct Solver<'a> {
     coarse_step: f64,
     /// Brightness scale of each table (largest sample).
     peaks: [f32; 2],
-    /// Each light's floor (black level), padded with zeros: "dark" is measured above it.
-    floors: &'a [f32],
+    /// Each light's floor (black level), padded with zeros: "dark" is measured above it,
+    /// and the outline's coverage divides the light above it (`lut::coverage_refit`).
+    pub floors: &'a [f32],
     /// The table's extension past its last clean ring (one table, refined lookup).
     rim: Option<RimGate<'a>>,
     /// Isolation radius of each entry as f32 bits, computed when first needed
