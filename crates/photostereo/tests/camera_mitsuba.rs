@@ -75,20 +75,20 @@ fn develop_case(mut case: Case, camera: Camera, noise: f32) -> Case {
 
 #[test]
 fn conductor_16bit() {
-    // measured: nearest 0.752 / 0.751°, lookup 0.0238 / 0.0239°, default 0.0234 / 0.0235°
+    // measured: nearest 0.752 / 0.751°, lookup 0.0238 / 0.0239°, default 0.0231 / 0.0231°
     check("Mitsuba aluminium 16-bit", &conductor(), 0.05);
 }
 
 #[test]
 fn conductor_8bit_exposed_for_its_peak() {
-    // measured: nearest 1.167 / 1.168°, lookup 0.751 / 0.752°, default 0.342 / 0.339°
+    // measured: nearest 1.167 / 1.168°, lookup 0.751 / 0.752°, default 0.341 / 0.337°
     let case = develop_case(conductor(), camera(8, 0.0, 0.0), 0.0);
     check("Mitsuba aluminium 8-bit", &case, 0.45);
 }
 
 #[test]
 fn conductor_8bit_blurred_with_black_level() {
-    // measured: nearest 1.082 / 1.056°, lookup 0.894 / 0.875°, default 0.475 / 0.478°;
+    // measured: nearest 1.082 / 1.056°, lookup 0.894 / 0.875°, default 0.468 / 0.473°;
     // circle found 0.002 px off centre, radius −0.102 px
     let case = develop_case(conductor(), camera(8, 0.8, 0.03), 0.0);
     check("Mitsuba aluminium 8-bit blur 0.8 black 3%", &case, 0.6);
@@ -97,7 +97,7 @@ fn conductor_8bit_blurred_with_black_level() {
 #[test]
 fn conductor_with_one_percent_noise() {
     // Gaussian noise of 1% of full scale on sphere and target, 16-bit. measured:
-    // nearest 9.32 / 9.31°, lookup 8.63 / 8.64°, default 1.548 / 1.507°.
+    // nearest 9.32 / 9.31°, lookup 8.63 / 8.64°, default 1.548 / 1.509°.
     // The circle is checked within 0.2 px, not the 0.15 px issue 24 asks on its blurred
     // 8-bit spheres: on this noisy rim the radius found is −0.166 px with this seed
     // (+0.062 and +0.031 px with two others; at 2% noise no circle is found), a gap of
@@ -109,7 +109,7 @@ fn conductor_with_one_percent_noise() {
 #[test]
 fn conductor_sphere_at_half_size() {
     // The sphere area-averaged to r = 50 about its centre; the target as rendered.
-    // measured: nearest 1.423 / 1.423°, lookup 0.0640 / 0.0620°, default 0.0637 / 0.0618°
+    // measured: nearest 1.423 / 1.423°, lookup 0.0640 / 0.0620°, default 0.0633 / 0.0613°
     let mut case = conductor();
     case.sphere = rescale(&case.sphere, &CIRCLE, 0.5, 256, 256);
     case.truth_circle = Circle {
@@ -121,15 +121,16 @@ fn conductor_sphere_at_half_size() {
 
 #[test]
 fn shared_plastic_8bit_blurred_with_black_level() {
-    // measured: nearest 0.530 / 0.545°, lookup 0.183 / 0.192°, default 0.167 / 0.178°
-    // (before the cast-shadow test measured "dark" above the black level: default 0.191°
-    // with the circle found); issue 24's target < 0.20°
+    // measured: nearest 0.530 / 0.545°, lookup 0.183 / 0.192°, default 0.145 / 0.158°
+    // (0.167 / 0.178° before the spatial stage's lack-of-fit scaling; before the
+    // cast-shadow test measured "dark" above the black level: 0.191° with the circle
+    // found); issue 24's target < 0.20°
     let test = "shared_plastic_8bit_blurred_with_black_level";
     let Some(case) = shared(test, "roughplastic") else {
         return;
     };
     let case = develop_case(case, camera(8, 0.8, 0.03), 0.0);
-    check("Mitsuba plastic 8-bit blur 0.8 black 3%", &case, 0.20);
+    check("Mitsuba plastic 8-bit blur 0.8 black 3%", &case, 0.17);
 }
 
 #[test]
@@ -138,7 +139,7 @@ fn shared_lambertian_8bit_with_black_level() {
     // 0.03 × peak, so the cast-shadow test must measure "dark" above each light's floor
     // (`lut::Table::floors`), and the outline's coverage divide the light above it
     // (`lut::coverage_refit`). measured: nearest 0.533 / 0.533°, lookup 0.0653 / 0.0653°,
-    // default 0.0561 / 0.0561° (with the floor in the cast-shadow test only: lookup
+    // default 0.0557 / 0.0557° (with the floor in the cast-shadow test only: lookup
     // 0.0723°, default 0.0629°; before both, circle found: lookup 0.137°, default 0.127°)
     let test = "shared_lambertian_8bit_with_black_level";
     let Some(case) = shared(test, "diffuse") else {
@@ -151,8 +152,8 @@ fn shared_lambertian_8bit_with_black_level() {
 #[test]
 fn shared_lambertian_and_plastic_with_one_percent_noise() {
     // Gaussian noise of 1% of full scale, 16-bit. measured: Lambertian nearest 0.665 /
-    // 0.664°, lookup 0.350 / 0.350°, default 0.143 / 0.142°; plastic nearest 0.820 /
-    // 0.821°, lookup 0.596 / 0.596°, default 0.221 / 0.221° (issue 24's targets on its
+    // 0.664°, lookup 0.350 / 0.350°, default 0.140 / 0.139°; plastic nearest 0.820 /
+    // 0.821°, lookup 0.596 / 0.596°, default 0.218 / 0.217° (issue 24's targets on its
     // hidden renders: < 0.22° and < 0.30°)
     let test = "shared_lambertian_and_plastic_with_one_percent_noise";
     for (material, bound) in [("diffuse", 0.17), ("roughplastic", 0.26)] {
@@ -162,4 +163,38 @@ fn shared_lambertian_and_plastic_with_one_percent_noise() {
         let case = develop_case(case, camera(16, 0.0, 0.0), 0.01);
         check(&format!("Mitsuba {material} 1% noise"), &case, bound);
     }
+}
+
+/// `stack` with only the lights `lights` (indices), in that order.
+fn keep_lights(stack: &ImageStack, lights: &[usize]) -> ImageStack {
+    let mut out = ImageStack::zeros(stack.width, stack.height, lights.len());
+    out.names = lights.iter().map(|&l| stack.names[l].clone()).collect();
+    for p in 0..stack.width * stack.height {
+        let src = stack.pixel_flat(p);
+        for (d, &l) in out.pixel_flat_mut(p).iter_mut().zip(lights) {
+            *d = src[l];
+        }
+    }
+    out
+}
+
+#[test]
+fn shared_plastic_16_lights_blurred_with_black_level() {
+    // Issue 24's hidden cases use 16 lights; these renders have 20 (rings of 4, 8, 8 at
+    // 20°, 40°, 60°): the 20° ring dropped. measured: nearest 0.531 / 0.546°, lookup
+    // 0.209 / 0.219°, default 0.161 / 0.174° (before the spatial stage's lack-of-fit
+    // scaling, circle found: 0.208°, issue 24's target < 0.20° missed)
+    let test = "shared_plastic_16_lights_blurred_with_black_level";
+    let Some(mut case) = shared(test, "roughplastic") else {
+        return;
+    };
+    let outer: Vec<usize> = (4..20).collect();
+    case.sphere = keep_lights(&case.sphere, &outer);
+    case.target = keep_lights(&case.target, &outer);
+    let case = develop_case(case, camera(8, 0.8, 0.03), 0.0);
+    check(
+        "Mitsuba plastic 16 lights, 8-bit blur 0.8 black 3%",
+        &case,
+        0.19,
+    );
 }
