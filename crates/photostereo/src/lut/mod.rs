@@ -350,6 +350,15 @@ impl<'t> Lookup<'t> {
     }
 }
 
+/// The cast-shadow test of a light (module docs, step 4), shared by the lookup and the
+/// spatial stage's evidence: the target's sample `t` is within `level` of the light's
+/// `floor` (its black level, [`Table::floors`]) while the prediction `pred` is lit above
+/// it. (`fit::fused::Single::any_dark_lit` is its lane-wise form on the fast path.)
+#[inline]
+pub(crate) fn cast_shadowed(t: f32, floor: f32, pred: f32, level: f32) -> bool {
+    t - floor < level && pred > t + level
+}
+
 /// Whether the outline's brightness-free match applies ([`Options::outline_coverage`]):
 /// one table searched, the refined method, no brightness fitted at every pixel already.
 fn outline_applies(searched: &[Table], opts: &Options) -> bool {

@@ -44,8 +44,7 @@ use super::levels::Censor;
 use super::noise::NoiseModel;
 use crate::image::{GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::lut::fit::rim::{Rim, RimBuf, DARK};
-use crate::lut::outline;
-use crate::lut::Table;
+use crate::lut::{self, outline, Table};
 use rayon::prelude::*;
 
 /// Angular standard errors are capped at this (degrees): no information.
@@ -55,10 +54,6 @@ const MIN_NZ2: f32 = 0.01;
 /// Reduced chi-square above which a pixel's evidence is scaled down (module docs, "Lack
 /// of fit"): an RMS residual of 3 noise standard deviations.
 pub const MISFIT_LIMIT: f64 = 9.0;
-/// An outline pixel's tuple is taken as partly background where the dimmed prediction's
-/// squared residual is below the plain one's divided by this (`lut::outline`'s ratio 3 on
-/// the RMS residual, squared).
-const OUTLINE_RATIO_SQ: f64 = 9.0;
 
 /// The per-pixel evidence (dense arrays over the image, zero outside the mask).
 #[derive(Clone, Debug)]
@@ -407,7 +402,7 @@ impl<'a> TablePixel<'a> {
         for i in 0..k {
             let pred = scale * v[i];
             let ti = if t[i].is_finite() { t[i] } else { 0.0 };
-            if ti - self.floors[i] < level && pred > ti + level {
+            if lut::cast_shadowed(ti, self.floors[i], pred, level) {
                 continue; // cast shadow, as the lookup would treat it
             }
             if self.censor.holds(i, ti, pred) {
@@ -495,7 +490,9 @@ impl<'a> TablePixel<'a> {
             plain += (ti - p).powi(2);
             dimmed += (ti - f as f64 - g * (p - f as f64)).powi(2);
         }
-        if OUTLINE_RATIO_SQ * dimmed >= plain {
+        // the lookup's test (`lut::outline::RESIDUAL_RATIO` on the RMS residual), squared
+        let ratio = outline::RESIDUAL_RATIO as f64;
+        if ratio * ratio * dimmed >= plain {
             return false;
         }
         for ((o, &ti), &f) in out.iter_mut().zip(t).zip(self.floors) {

@@ -43,7 +43,7 @@ impl Solver<'_> {
     /// light's floor (black level) while the model's `pred` is lit above it.
     #[inline]
     fn dark_lit(&self, i: usize, t: f32, pred: f32, level: f32) -> bool {
-        t - self.floors[i] < level && pred > t + level
+        crate::lut::cast_shadowed(t, self.floors[i], pred, level)
     }
 
     /// Dark level of `fit` whose model tuple is in `wk.s.pred`.
