@@ -61,7 +61,7 @@ pub(crate) fn log_mean(mean: &[f32], width: usize, height: usize) -> Vec<f32> {
 }
 
 /// Separable Gaussian blur of standard deviation `sigma` pixels (clamped borders).
-fn gaussian_blur(img: &[f32], width: usize, height: usize, sigma: f64) -> Vec<f32> {
+pub(super) fn gaussian_blur(img: &[f32], width: usize, height: usize, sigma: f64) -> Vec<f32> {
     let half = (3.0 * sigma).ceil() as isize;
     let kernel: Vec<f32> = (-half..=half)
         .map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32)

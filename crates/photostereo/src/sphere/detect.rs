@@ -67,6 +67,10 @@ pub fn detect(stack: &ImageStack, opts: &DetectOptions) -> Result<Detection> {
                     faint_fallback(&max_image, search.as_ref(), opts, win)
                         .map_err(|faint| format!("{why}; as a faint disk: {faint}"))
                 })
+                .or_else(|why| {
+                    noisy_fallback(stack, search.as_ref(), opts, win, &max_image)
+                        .map_err(|noisy| format!("{why}; under noise: {noisy}"))
+                })
                 .map_err(|why| Error::SphereNotFound {
                     what,
                     reason: format!("{reason}; from contrast edges: {why}"),
@@ -227,6 +231,32 @@ fn faint_fallback(
         uncertainty_px: faint::uncertainty(&disk),
         rim_blur_px: None,
         fitted_on: "faint disk",
+        max_image: max_image.clone(),
+    })
+}
+
+/// Step 6c of the module docs (module `faint`, "Under noise"), as a [`Detection`].
+fn noisy_fallback(
+    stack: &ImageStack,
+    mask: Option<&Mask>,
+    opts: &DetectOptions,
+    win: (usize, usize, usize, usize),
+    max_image: &GrayImage,
+) -> std::result::Result<Detection, String> {
+    let (mean, keep) = window_mean(stack, mask, win);
+    let disk = faint::find_in_noise(&mean, &keep, (win.2, win.3), stack.k, opts)?;
+    Ok(Detection {
+        circle: Circle {
+            cx: disk.circle.cx + win.0 as f64,
+            cy: disk.circle.cy + win.1 as f64,
+            radius: disk.circle.radius,
+        },
+        rms_residual_px: disk.rms_residual_px,
+        inliers: disk.inliers,
+        edge_points: disk.boundary,
+        uncertainty_px: faint::uncertainty(&disk),
+        rim_blur_px: None,
+        fitted_on: "faint disk under noise",
         max_image: max_image.clone(),
     })
 }

@@ -42,6 +42,17 @@
 //!    lights near the view axis, through an 8-bit camera with blur and a black level,
 //!    shows its rim only one grey level above the background in the maximum image.
 //!
+//!    6c. **The faint disk under noise** (module `faint`): when that fails too, the mean
+//!    image blurred by 2 px is thresholded 3, 4, 6, 9 standard deviations of its
+//!    background above the background's mean; the first largest component that is a
+//!    disk *with no light just outside it* (else a threshold cut the sphere's bright
+//!    centre out of its dim rim), lit all round its edge, and whose step is below one
+//!    sample's noise deviation (a brighter one would have shown in the maximum image: a
+//!    mirror's blurred highlights merge into such a disk) is taken and re-thresholded
+//!    at half the rim's step. The
+//!    maximum over K noisy images lifts the background to a rough metal rim's level (2%
+//!    noise, 20 images); the blurred mean divides the noise by about 7√K instead.
+//!
 //! 7. **The rim model** (module `rim`, [`DetectOptions::rim_model`], on by default):
 //!    the circle of steps 3–6 is refined by fitting the image near the rim with a
 //!    blurred profile (background | a₀ + a₁√s + a₂s inside, Gaussian blur σ fitted),
