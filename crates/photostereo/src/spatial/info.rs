@@ -119,6 +119,9 @@ pub struct Reflectance<'a> {
     /// Each light's floor (`Table::floors`): the cast-shadow test measures "dark" above
     /// it, as the lookup does.
     floors: Vec<f32>,
+    /// The camera's black level, the smallest floor (0 without one): a brightness c
+    /// scales the light above it, p = b + c·(I − b), as the lookup matches it.
+    black: f32,
 }
 
 impl<'a> Reflectance<'a> {
@@ -137,10 +140,12 @@ impl<'a> Reflectance<'a> {
     /// 0.799°).
     pub fn new(table: &'a Table, noise: &NoiseModel) -> Self {
         let clean = noise.sigma(0.0) < DARK * table.peak();
+        let floors = table.floors();
         Reflectance {
             table,
             rim: if clean { Rim::fit(table) } else { None },
-            floors: table.floors(),
+            black: floors.iter().copied().fold(f32::INFINITY, f32::min),
+            floors,
         }
     }
 }
@@ -234,6 +239,9 @@ struct TablePixel<'a> {
     rim: Option<(&'a Rim, f32)>,
     /// Each light's floor (black level).
     floors: &'a [f32],
+    /// The black level under a fitted brightness ([`Reflectance`]'s; 0 without
+    /// normalised matching, where the brightness is 1 and the offset cancels).
+    black: f32,
     noise: &'a NoiseModel,
     censor: &'a Censor,
     shadow_level: f32,
@@ -330,7 +338,7 @@ impl<'a> TablePixel<'a> {
         let c = &self.censor;
         let mut sum = 0.0f64;
         for (l, (&ti, &vi)) in t.iter().zip(v.iter()).enumerate() {
-            let pred = scale * vi;
+            let pred = self.scaled(scale, vi);
             let ti = if ti.is_finite() { ti } else { 0.0 };
             let r = if ti <= c.low[l] {
                 (pred - c.low[l]).max(0.0)
@@ -343,6 +351,13 @@ impl<'a> TablePixel<'a> {
             sum += ((r as f64).powi(2) / var).min(MAX_SAMPLE_COST);
         }
         sum
+    }
+
+    /// The prediction of table sample `v` under brightness `scale`: b + scale·(v − b),
+    /// exactly scale·v when the black level b is 0.
+    #[inline]
+    fn scaled(&self, scale: f32, v: f32) -> f32 {
+        self.black + scale * (v - self.black)
     }
 
     fn new(
@@ -359,6 +374,11 @@ impl<'a> TablePixel<'a> {
             table,
             rim,
             floors: &refl.floors,
+            black: if normalized && refl.black.is_finite() {
+                refl.black.max(0.0)
+            } else {
+                0.0
+            },
             noise,
             censor,
             shadow_level,
@@ -400,7 +420,7 @@ impl<'a> TablePixel<'a> {
         let (mut iwi, mut iwj) = (0.0f64, [0.0f64; 2]);
         let (mut chi2, mut used) = (0.0f64, 0usize);
         for i in 0..k {
-            let pred = scale * v[i];
+            let pred = self.scaled(scale, v[i]);
             let ti = if t[i].is_finite() { t[i] } else { 0.0 };
             if lut::cast_shadowed(ti, self.floors[i], pred, level) {
                 continue; // cast shadow, as the lookup would treat it
@@ -420,7 +440,7 @@ impl<'a> TablePixel<'a> {
             chi2 += res * (ti - pred) as f64;
             used += 1;
             if self.normalized {
-                let vi = v[i] as f64;
+                let vi = (v[i] - self.black) as f64;
                 iwi += wgt * vi * vi;
                 iwj[0] += wgt * vi * j[0];
                 iwj[1] += wgt * vi * j[1];
@@ -469,13 +489,13 @@ impl<'a> TablePixel<'a> {
     }
 
     /// Whether the outline pixel's tuple `t` is partly background (module docs): the
-    /// dimmed prediction f + g·(p − f), p = `scale`·`v`, fits clearly better than p. If
+    /// dimmed prediction f + g·(p − f), p the prediction at brightness `scale`, fits clearly better than p. If
     /// so, `out` holds the tuple corrected for the coverage, f + (t − f)/g.
     fn uncovered(&self, t: &[f32], v: &[f32], scale: f32, out: &mut [f32]) -> bool {
         let finite = |x: f32| if x.is_finite() { x } else { 0.0 };
         let (mut num, mut den) = (0.0f64, 0.0f64);
         for ((&ti, &vi), &f) in t.iter().zip(v).zip(self.floors) {
-            let p = (scale * vi - f) as f64;
+            let p = (self.scaled(scale, vi) - f) as f64;
             num += (finite(ti) - f) as f64 * p;
             den += p * p;
         }
@@ -486,7 +506,7 @@ impl<'a> TablePixel<'a> {
         let g = g.max(outline::MIN_COVERAGE as f64);
         let (mut plain, mut dimmed) = (0.0f64, 0.0f64);
         for ((&ti, &vi), &f) in t.iter().zip(v).zip(self.floors) {
-            let (ti, p) = (finite(ti) as f64, (scale * vi) as f64);
+            let (ti, p) = (finite(ti) as f64, self.scaled(scale, vi) as f64);
             plain += (ti - p).powi(2);
             dimmed += (ti - f as f64 - g * (p - f as f64)).powi(2);
         }

@@ -10,6 +10,7 @@ use photostereo::synth::Camera;
 use photostereo::{eval, spatial, ImageStack, Mask, NormalMap};
 
 /// A sphere's images with its true circle, and a target's images, mask and true normals.
+#[derive(Clone)]
 pub struct Case {
     pub sphere: ImageStack,
     pub truth_circle: Circle,

@@ -276,6 +276,22 @@ impl Table {
             .collect()
     }
 
+    /// The table with `floors` (one per light, e.g. [`Table::floors`]) taken off every
+    /// sample of its window and entries: the light above a camera's black level, which
+    /// is what scales with a target's albedo (a fit with a free brightness matches
+    /// t − f = c·(I − f), not t = c·I).
+    pub fn above(&self, floors: &[f32]) -> Table {
+        let mut out = self.clone();
+        let k = self.k.max(1);
+        for tuple in out.entries.tuples.chunks_exact_mut(k) {
+            tuple.iter_mut().zip(floors).for_each(|(v, f)| *v -= f);
+        }
+        for tuple in out.window.stack.data.chunks_exact_mut(k) {
+            tuple.iter_mut().zip(floors).for_each(|(v, f)| *v -= f);
+        }
+        out
+    }
+
     /// Largest sample of any entry (the table's brightness scale).
     pub fn peak(&self) -> f32 {
         // 8 independent chains (a single fold is one long dependency chain)
