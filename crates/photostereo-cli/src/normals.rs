@@ -79,6 +79,12 @@ pub struct Args {
     /// TARGET_DIR/light_directions.txt.
     #[arg(long, value_name = "FILE", requires = "lambertian")]
     lights: Option<PathBuf>,
+    /// With --lambertian: the camera's black level, taken off every sample before the
+    /// fit: `auto` (the default: measured from the images and taken off when clearly
+    /// above 0; a line says what was found), `none`, or a level as a fraction of full
+    /// scale (e.g. 0.03). A dark offset reads as light no normal explains.
+    #[arg(long, value_name = "LEVEL", requires = "lambertian")]
+    black_level: Option<String>,
     /// Keep every pixel's own normal: no spatial stage (by default pixels whose data say
     /// little about their normal take it from their neighbours; see `photostereo::spatial`).
     #[arg(long)]
@@ -286,12 +292,21 @@ fn lambertian_normals(
     } else {
         lambertian::Options::default()
     };
+    let black = black_level(data, mask, lights, args.black_level.as_deref(), global)?;
+    let mut above;
+    let stack = if black > 0.0 {
+        above = data.stack.clone();
+        above.data.iter_mut().for_each(|v| *v -= black);
+        &above
+    } else {
+        &data.stack
+    };
     let input = normals::Input::Lambertian(lights, &opts);
-    let out = normals::pixelwise(&data.stack, mask, &input, &NoProgress)?;
+    let out = normals::pixelwise(stack, mask, &input, &NoProgress)?;
     if !global.quiet {
         println!("Lambertian least squares on {} pixels", mask.count());
     }
-    let mut out = normals::spatial_stage(&data.stack, mask, &input, &normals_options(args), out)
+    let mut out = normals::spatial_stage(stack, mask, &input, &normals_options(args), out)
         .context("spatial stage after the Lambertian solve")?;
     if let (Some(s), false) = (&out.spatial, global.quiet) {
         println!(
@@ -308,6 +323,50 @@ fn lambertian_normals(
         grays,
     })
 }
+
+/// The black level to take off the samples (fraction of full scale) for `--black-level
+/// LEVEL` (`None`: auto).
+fn black_level(
+    data: &io::Dataset,
+    mask: &Mask,
+    lights: &photostereo::Lights,
+    level: Option<&str>,
+    global: Global,
+) -> anyhow::Result<f32> {
+    match level.unwrap_or("auto") {
+        "none" => Ok(0.0),
+        "auto" => {
+            // measured on the robust fits whatever the solver (a plain fit keeps the
+            // shadows, which the black level's model does not hold)
+            let opts = lambertian::Options::default();
+            let b = lambertian::estimate_black_level(&data.stack, mask, lights, &opts)?;
+            let taken = b.is_significant() && b.value <= MAX_BLACK_LEVEL;
+            if !global.quiet {
+                println!(
+                    "black level: {:.4} of full scale (standard error {:.1e}) measured from the \
+                     images; {}",
+                    b.value,
+                    b.standard_error,
+                    if taken { "taken off" } else { "none taken off" }
+                );
+            }
+            Ok(if taken { b.value } else { 0.0 })
+        }
+        text => text
+            .parse::<f32>()
+            .ok()
+            .filter(|v| (0.0..MAX_BLACK_LEVEL).contains(v))
+            .with_context(|| {
+                format!(
+                    "--black-level {text}: give auto, none, or a level in [0, {MAX_BLACK_LEVEL}) \
+                     as a fraction of full scale (e.g. 0.03)"
+                )
+            }),
+    }
+}
+
+/// Largest black level taken (fraction of full scale): cameras' are a few percent.
+const MAX_BLACK_LEVEL: f32 = 0.25;
 
 fn write_results(dir: &Path, r: &Results, mask: &Mask) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

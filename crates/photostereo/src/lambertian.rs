@@ -27,6 +27,14 @@
 //! ρ = 0. Every mask pixel therefore gets a unit normal; `used_lights` and
 //! `residual` say how far to trust it.
 //!
+//! **A camera's black level** β (a dark offset on every sample: Iᵢ = β + ρ eᵢ max(0,
+//! n·lᵢ)) reads as light that no normal explains: a 3% level costs an 8-bit Lambertian
+//! blob 0.05° → 2.2°. [`Options::black_level`] takes a known level off every sample;
+//! [`estimate_black_level`] measures it from the robust fits by variable projection
+//! (β is common to all pixels, each pixel's b is projected out). It cannot be measured
+//! when the lights lie on one cone about an axis (a ring at one elevation): the offset
+//! is then a tilt of every normal towards that axis.
+//!
 //! R. J. Woodham, "Photometric method for determining surface orientation from
 //! multiple images", Optical Engineering 19(1), 1980.
 //! S. Barsky and M. Petrou, "The 4-source photometric stereo technique for
@@ -57,6 +65,11 @@ pub struct Options {
     pub iterations: usize,
     /// Fewest samples a robust fit may use (≥ 3); below it the pixel uses all K.
     pub min_lights: usize,
+    /// The camera's black level (image units), taken off every sample before the fit:
+    /// a sensor's dark offset reads as light that no normal explains (a 3% black level
+    /// on an 8-bit Lambertian blob: 0.05° → 2.2°). [`estimate_black_level`] measures it
+    /// from the images. Default 0.
+    pub black_level: f32,
 }
 
 impl Default for Options {
@@ -69,6 +82,7 @@ impl Default for Options {
             residual_rejection: 2.5,
             iterations: 3,
             min_lights: 3,
+            black_level: 0.0,
         }
     }
 }
@@ -106,16 +120,7 @@ pub struct Output {
 /// [`Error::InvalidInput`] for coplanar lights or `min_lights` < 3.
 pub fn solve(stack: &ImageStack, mask: &Mask, lights: &Lights, opts: &Options) -> Result<Output> {
     let eff = check_inputs(stack, mask, lights, opts)?;
-    let fits: Vec<PixelFit> = (0..stack.pixels())
-        .into_par_iter()
-        .map(|i| {
-            if mask.data[i] {
-                fit_pixel(stack.pixel_flat(i), &eff, opts)
-            } else {
-                PixelFit::OUTSIDE
-            }
-        })
-        .collect();
+    let fits = fit_all(stack, mask, &eff, opts);
     let (w, h) = (stack.width, stack.height);
     Ok(Output {
         normals: Image::from_vec(w, h, fits.iter().map(|f| f.normal).collect())?,
@@ -123,6 +128,108 @@ pub fn solve(stack: &ImageStack, mask: &Mask, lights: &Lights, opts: &Options) -
         residual: Image::from_vec(w, h, fits.iter().map(|f| f.residual).collect())?,
         used_lights: Image::from_vec(w, h, fits.iter().map(|f| f.used).collect())?,
     })
+}
+
+/// Every pixel's fit (outside the mask: [`PixelFit::OUTSIDE`]), on its samples less
+/// [`Options::black_level`].
+fn fit_all(stack: &ImageStack, mask: &Mask, eff: &[[f64; 3]], opts: &Options) -> Vec<PixelFit> {
+    (0..stack.pixels())
+        .into_par_iter()
+        .map_init(Vec::new, |buf, i| {
+            if !mask.data[i] {
+                return PixelFit::OUTSIDE;
+            }
+            let px = stack.pixel_flat(i);
+            if opts.black_level == 0.0 {
+                return fit_pixel(px, eff, opts);
+            }
+            buf.clear();
+            buf.extend(px.iter().map(|v| v - opts.black_level));
+            fit_pixel(buf, eff, opts)
+        })
+        .collect()
+}
+
+/// The camera's black level estimated from the images ([`estimate_black_level`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BlackLevel {
+    /// The level (image units) found above the [`Options::black_level`] already taken
+    /// off.
+    pub value: f32,
+    /// Its standard error (image units), from the fits' residuals.
+    pub standard_error: f32,
+    /// Pixels that carried it (fits on at least four samples).
+    pub pixels: usize,
+}
+
+impl BlackLevel {
+    /// Whether the level is positive and at least [`BlackLevel::SIGNIFICANCE`] standard
+    /// errors from 0.
+    pub fn is_significant(&self) -> bool {
+        self.value > 0.0 && self.value >= Self::SIGNIFICANCE * self.standard_error
+    }
+
+    /// Standard errors a level must stand above 0 to be taken.
+    pub const SIGNIFICANCE: f32 = 5.0;
+}
+
+/// Estimate a black level β common to all images (a camera's dark offset: every sample
+/// reads β + ρ e max(0, n·l)) from the robust fits of [`solve`]. With the samples of
+/// pixel p that its fit used, Iₚ = β·1 + Lₚ bₚ; projecting out bₚ (variable projection,
+/// P⊥ = I − Lₚ(LₚᵀLₚ)⁻¹Lₚᵀ, u = P⊥1) leaves β = Σₚ⟨Iₚ, uₚ⟩ / Σₚ⟨1, uₚ⟩, with variance
+/// σ²/Σₚ⟨1, uₚ⟩ (σ² the pooled residual variance). Pixels need four samples. When the
+/// lights lie on a cone about one axis (a ring at one elevation), 1 is in the span of
+/// the lights and β cannot be told from the normals' tilt: the standard error is then
+/// infinite.
+///
+/// Errors: as [`solve`].
+pub fn estimate_black_level(
+    stack: &ImageStack,
+    mask: &Mask,
+    lights: &Lights,
+    opts: &Options,
+) -> Result<BlackLevel> {
+    let eff = check_inputs(stack, mask, lights, opts)?;
+    let fits = fit_all(stack, mask, &eff, opts);
+    let mut sum = [0.0f64; 4];
+    let mut pixels = 0usize;
+    for f in fits.iter().filter(|f| f.black[1] > 0.0) {
+        (sum.iter_mut().zip(f.black)).for_each(|(a, b)| *a += b);
+        pixels += 1;
+    }
+    let [num, den, ss, dof] = sum;
+    // a sum of u's under 1e-6 per pixel: 1 is (nearly) in the lights' span
+    let identified = den > 1e-6 * pixels as f64;
+    let value = if identified { num / den } else { 0.0 };
+    let variance = if dof > 0.0 { ss / dof } else { f64::INFINITY };
+    let se = if identified {
+        (variance / den).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    Ok(BlackLevel {
+        value: value as f32,
+        standard_error: se as f32,
+        pixels,
+    })
+}
+
+/// A pixel's terms of [`estimate_black_level`] over the samples `sel` with residual sum
+/// of squares `ss`: [Σ I·u, Σ u, ss, dof] (u = P⊥1; zeros with fewer than 4 samples).
+fn black_terms(eff: &[[f64; 3]], sel: &[usize], value: impl Fn(usize) -> f64, ss: f64) -> [f64; 4] {
+    if sel.len() < 4 {
+        return [0.0; 4];
+    }
+    let Some(c) = least_squares(eff, sel, |_| 1.0) else {
+        return [0.0; 4];
+    };
+    let (mut num, mut den) = (0.0, 0.0);
+    for &i in sel {
+        let u = 1.0 - dot(eff[i], c);
+        num += value(i) * u;
+        den += u;
+    }
+    [num, den, ss, (sel.len() - 3) as f64]
 }
 
 /// Validate and return the effective light vectors Lᵢ = eᵢ lᵢ.
@@ -189,6 +296,9 @@ struct PixelFit {
     albedo: f32,
     residual: f32,
     used: u16,
+    /// The pixel's terms of [`estimate_black_level`]: Σ I·u, Σ u (u = P⊥1 over the
+    /// samples used) and the residual sum of squares with its degrees of freedom.
+    black: [f64; 4],
 }
 
 impl PixelFit {
@@ -197,6 +307,7 @@ impl PixelFit {
         albedo: 0.0,
         residual: 0.0,
         used: 0,
+        black: [0.0; 4],
     };
 }
 
@@ -264,6 +375,7 @@ fn fit_pixel(samples: &[f32], eff: &[[f64; 3]], opts: &Options) -> PixelFit {
         albedo: if rho.is_finite() { rho as f32 } else { 0.0 },
         residual: (ss / sel.len().max(1) as f64).sqrt() as f32,
         used: sel.len().min(u16::MAX as usize) as u16,
+        black: black_terms(eff, &sel, val, ss),
     }
 }
 
