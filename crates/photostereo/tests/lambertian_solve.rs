@@ -4,7 +4,7 @@ mod common;
 use common::angle_deg;
 use photostereo::error::Error;
 use photostereo::image::{ImageStack, Lights, Mask, NormalMap};
-use photostereo::lambertian::{estimate_black_level, solve, Options, Output};
+use photostereo::lambertian::{estimate_black_level, solve, BlackLevel, Options, Output};
 use photostereo::synth::{default_lights, render, Material, Scene, SceneOptions, Shape, ShapeKind};
 
 /// A noise-free `size`×`size` render of the preset `kind` in `material` under `k`
@@ -197,6 +197,17 @@ fn four_lights_with_one_shadow_stay_exact() {
     assert!(e < 0.01);
 }
 
+/// The black level measured in `scene` with the default options.
+fn black_level_of(scene: &Scene) -> BlackLevel {
+    estimate_black_level(
+        &scene.stack,
+        &scene.mask,
+        &scene.lights,
+        &Options::default(),
+    )
+    .unwrap()
+}
+
 #[test]
 fn a_black_level_is_measured_and_taken_off() {
     // a camera's dark offset β on every sample: β + ρ e max(0, n·l)
@@ -204,26 +215,14 @@ fn a_black_level_is_measured_and_taken_off() {
     let scene = render(&opts).unwrap();
     let clean = solve_scene(&scene, &Options::default());
     let e_clean = mean_error(&clean.normals, &scene.normals, &scene.mask);
-    let est = estimate_black_level(
-        &scene.stack,
-        &scene.mask,
-        &scene.lights,
-        &Options::default(),
-    )
-    .unwrap();
+    let est = black_level_of(&scene);
     assert!(!est.is_significant(), "{est:?}");
     let black = 0.03f32;
     let mut lifted = scene.clone();
     lifted.stack.data.iter_mut().for_each(|v| *v += black);
     let raw = solve_scene(&lifted, &Options::default());
     let e_raw = mean_error(&raw.normals, &scene.normals, &scene.mask);
-    let est = estimate_black_level(
-        &lifted.stack,
-        &lifted.mask,
-        &lifted.lights,
-        &Options::default(),
-    )
-    .unwrap();
+    let est = black_level_of(&lifted);
     let taken = Options {
         black_level: est.value,
         ..Options::default()
@@ -263,13 +262,7 @@ fn a_black_level_under_a_ring_of_lights_is_not_identified() {
     };
     let mut scene = render(&opts).unwrap();
     scene.stack.data.iter_mut().for_each(|v| *v += 0.03);
-    let est = estimate_black_level(
-        &scene.stack,
-        &scene.mask,
-        &scene.lights,
-        &Options::default(),
-    )
-    .unwrap();
+    let est = black_level_of(&scene);
     println!("ring of lights, black level 0.03: {est:?}");
     assert!(!est.is_significant(), "{est:?}");
 }

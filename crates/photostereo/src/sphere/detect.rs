@@ -219,20 +219,7 @@ fn faint_fallback(
 ) -> std::result::Result<Detection, String> {
     let (values, keep) = window_values(max_image, mask, win);
     let disk = faint::find(&values, &keep, (win.2, win.3), opts)?;
-    Ok(Detection {
-        circle: Circle {
-            cx: disk.circle.cx + win.0 as f64,
-            cy: disk.circle.cy + win.1 as f64,
-            radius: disk.circle.radius,
-        },
-        rms_residual_px: disk.rms_residual_px,
-        inliers: disk.inliers,
-        edge_points: disk.boundary,
-        uncertainty_px: faint::uncertainty(&disk),
-        rim_blur_px: None,
-        fitted_on: "faint disk",
-        max_image: max_image.clone(),
-    })
+    Ok(disk_detection(&disk, win, "faint disk", max_image))
 }
 
 /// Step 6c of the module docs (module `faint`, "Under noise"), as a [`Detection`].
@@ -245,7 +232,22 @@ fn noisy_fallback(
 ) -> std::result::Result<Detection, String> {
     let (mean, keep) = window_mean(stack, mask, win);
     let disk = faint::find_in_noise(&mean, &keep, (win.2, win.3), stack.k, opts)?;
-    Ok(Detection {
+    Ok(disk_detection(
+        &disk,
+        win,
+        "faint disk under noise",
+        max_image,
+    ))
+}
+
+/// A faint disk found in the window `win` as a [`Detection`] in image coordinates.
+fn disk_detection(
+    disk: &faint::FaintDisk,
+    win: (usize, usize, usize, usize),
+    fitted_on: &'static str,
+    max_image: &GrayImage,
+) -> Detection {
+    Detection {
         circle: Circle {
             cx: disk.circle.cx + win.0 as f64,
             cy: disk.circle.cy + win.1 as f64,
@@ -254,11 +256,11 @@ fn noisy_fallback(
         rms_residual_px: disk.rms_residual_px,
         inliers: disk.inliers,
         edge_points: disk.boundary,
-        uncertainty_px: faint::uncertainty(&disk),
+        uncertainty_px: faint::uncertainty(disk),
         rim_blur_px: None,
-        fitted_on: "faint disk under noise",
+        fitted_on,
         max_image: max_image.clone(),
-    })
+    }
 }
 
 /// The mean over the K images in the window `win` (row-major; non-finite samples count
