@@ -8,7 +8,10 @@
 //! by their brightness (I > `shadow_fraction` × the image's brightest sphere pixel),
 //! then — to avoid the noise bias of thresholding measured values — by the predicted
 //! brightness n·sₖ of the current fit, and refitted. lₖ = sₖ/‖sₖ‖, and the relative
-//! intensity is ‖sₖ‖ / maxⱼ ‖sⱼ‖ (the sphere's albedo is unknown).
+//! intensity is ‖sₖ‖ / maxⱼ ‖sⱼ‖ (the sphere's albedo is unknown). A camera's black
+//! level (or ambient light) lifts every sample: the refits take off the level of the
+//! sphere's attached shadow (the median of the pixels the fit puts well into it), one
+//! level for all images (the median over the lights that shadow enough of the sphere).
 //!
 //! **Chrome sphere** ([`from_chrome_sphere`]). A mirror sphere shows each light as a
 //! small highlight where its normal bisects the view v = (0, 0, 1) and the light.
@@ -96,10 +99,23 @@ pub fn from_matte_sphere(
     opts: &MatteOptions,
 ) -> Result<Lights> {
     let pixels = sphere_pixels(stack, circle, opts.rim_px)?;
+    // the camera's black level is common to all images: the median of the shadow
+    // levels of the lights that leave enough of the sphere in shadow, then every light
+    // fitted above it (a light near the view axis shadows too little to measure it)
+    let mut levels = Vec::with_capacity(stack.k);
+    for k in 0..stack.k {
+        levels.extend(fit_matte_light(stack, &pixels, k, opts, None)?.1);
+    }
+    let black = if levels.is_empty() {
+        0.0
+    } else {
+        let mid = levels.len() / 2;
+        *levels.select_nth_unstable_by(mid, f32::total_cmp).1
+    };
     let mut directions = Vec::with_capacity(stack.k);
     let mut strengths = Vec::with_capacity(stack.k);
     for k in 0..stack.k {
-        let s = fit_matte_light(stack, &pixels, k, opts)?;
+        let (s, _) = fit_matte_light(stack, &pixels, k, opts, Some(black))?;
         let len = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
         directions.push([
             (s[0] / len) as f32,
@@ -184,12 +200,16 @@ fn image_name(stack: &ImageStack, k: usize) -> String {
         .unwrap_or_else(|| format!("image {k}"))
 }
 
+/// The light s of image `k` (module docs) fitted above the black level `black`, or above
+/// the level of this image's own attached shadow when `None`; with the shadow's level
+/// found (`None` when it could not be measured, or when `black` was given).
 fn fit_matte_light(
     stack: &ImageStack,
     pixels: &[SpherePixel],
     k: usize,
     opts: &MatteOptions,
-) -> Result<[f64; 3]> {
+    black: Option<f32>,
+) -> Result<([f64; 3], Option<f32>)> {
     let value = |p: &SpherePixel| stack.data[p.index * stack.k + k];
     let usable = |v: f32| v.is_finite() && v < opts.saturation;
     let peak = pixels
@@ -204,24 +224,61 @@ fn fit_matte_light(
             .filter(|p| usable(value(p)) && value(p) > first),
         value,
     );
+    let mut found = None;
     for _ in 0..opts.iterations {
         let Some(cur) = s else { break };
         let pred = |p: &SpherePixel| dot(p.normal, cur);
         let top = pixels.iter().map(pred).fold(0.0, f64::max);
         let cut = opts.shadow_fraction as f64 * top;
+        if black.is_none() {
+            found = shadow_level(pixels, &value, &pred, top);
+        }
+        let level = black.or(found).unwrap_or(0.0);
         s = lsq_light(
             pixels.iter().filter(|p| usable(value(p)) && pred(p) > cut),
-            value,
+            |p| value(p) - level,
         );
     }
     match s {
-        Some(v) if dot(v, v) > 0.0 => Ok(v),
+        Some(v) if dot(v, v) > 0.0 => Ok((v, found)),
         _ => Err(Error::invalid(
             format!("matte sphere, {}", image_name(stack, k)),
             "too few lit sphere pixels to fit the light: check the exposure, the circle and that the light faces the sphere",
         )),
     }
 }
+
+/// The level of the sphere's attached shadow in one image: the median of the pixels
+/// that the current fit `pred` puts well into it (below −[`SHADOW_DEPTH`] × its peak
+/// `top`), where there are at least [`MIN_SHADOW_PIXELS`]; else `None`. A camera's black level
+/// (or ambient light) lifts every sample by it, and a fit through the origin would
+/// tilt the light to explain it (a 3% black level on a 128² matte sphere: 0.003° →
+/// 1.34° per light).
+fn shadow_level(
+    pixels: &[SpherePixel],
+    value: &impl Fn(&SpherePixel) -> f32,
+    pred: &impl Fn(&SpherePixel) -> f64,
+    top: f64,
+) -> Option<f32> {
+    let mut dark: Vec<f32> = (pixels.iter())
+        .filter(|p| pred(p) < -SHADOW_DEPTH * top)
+        .map(value)
+        .filter(|v| v.is_finite())
+        .collect();
+    if dark.len() < MIN_SHADOW_PIXELS {
+        return None;
+    }
+    let mid = dark.len() / 2;
+    Some(dark.select_nth_unstable_by(mid, f32::total_cmp).1.max(0.0))
+}
+
+/// Depth into the attached shadow (fraction of the fit's peak) of the pixels whose
+/// median is the shadow's level: away from the terminator, where blur and the fit's
+/// error mix in lit pixels.
+const SHADOW_DEPTH: f64 = 0.1;
+
+/// Fewest shadowed pixels whose median is taken for the shadow's level.
+const MIN_SHADOW_PIXELS: usize = 50;
 
 fn lsq_light<'a>(
     sel: impl Iterator<Item = &'a SpherePixel>,
