@@ -120,7 +120,7 @@ pub struct Output {
 /// [`Error::InvalidInput`] for coplanar lights or `min_lights` < 3.
 pub fn solve(stack: &ImageStack, mask: &Mask, lights: &Lights, opts: &Options) -> Result<Output> {
     let eff = check_inputs(stack, mask, lights, opts)?;
-    let fits = fit_all(stack, mask, &eff, opts);
+    let fits = fit_all(stack, mask, &eff, opts, false);
     let (w, h) = (stack.width, stack.height);
     Ok(Output {
         normals: Image::from_vec(w, h, fits.iter().map(|f| f.normal).collect())?,
@@ -131,8 +131,14 @@ pub fn solve(stack: &ImageStack, mask: &Mask, lights: &Lights, opts: &Options) -
 }
 
 /// Every pixel's fit (outside the mask: [`PixelFit::OUTSIDE`]), on its samples less
-/// [`Options::black_level`].
-fn fit_all(stack: &ImageStack, mask: &Mask, eff: &[[f64; 3]], opts: &Options) -> Vec<PixelFit> {
+/// [`Options::black_level`]; with its terms of [`estimate_black_level`] when `black`.
+fn fit_all(
+    stack: &ImageStack,
+    mask: &Mask,
+    eff: &[[f64; 3]],
+    opts: &Options,
+    black: bool,
+) -> Vec<PixelFit> {
     (0..stack.pixels())
         .into_par_iter()
         .map_init(Vec::new, |buf, i| {
@@ -141,11 +147,11 @@ fn fit_all(stack: &ImageStack, mask: &Mask, eff: &[[f64; 3]], opts: &Options) ->
             }
             let px = stack.pixel_flat(i);
             if opts.black_level == 0.0 {
-                return fit_pixel(px, eff, opts);
+                return fit_pixel(px, eff, opts, black);
             }
             buf.clear();
             buf.extend(px.iter().map(|v| v - opts.black_level));
-            fit_pixel(buf, eff, opts)
+            fit_pixel(buf, eff, opts, black)
         })
         .collect()
 }
@@ -190,7 +196,7 @@ pub fn estimate_black_level(
     opts: &Options,
 ) -> Result<BlackLevel> {
     let eff = check_inputs(stack, mask, lights, opts)?;
-    let fits = fit_all(stack, mask, &eff, opts);
+    let fits = fit_all(stack, mask, &eff, opts, true);
     let mut sum = [0.0f64; 4];
     let mut pixels = 0usize;
     for f in fits.iter().filter(|f| f.black[1] > 0.0) {
@@ -325,7 +331,9 @@ fn least_squares(
     solve3(a, rhs)
 }
 
-fn fit_pixel(samples: &[f32], eff: &[[f64; 3]], opts: &Options) -> PixelFit {
+/// The robust fit of one pixel (module docs); `black`: with its terms of
+/// [`estimate_black_level`] (zeros otherwise).
+fn fit_pixel(samples: &[f32], eff: &[[f64; 3]], opts: &Options, black: bool) -> PixelFit {
     let k = samples.len();
     let val = |i: usize| samples[i] as f64;
     let mut sel = initial_selection(samples, opts);
@@ -375,7 +383,11 @@ fn fit_pixel(samples: &[f32], eff: &[[f64; 3]], opts: &Options) -> PixelFit {
         albedo: if rho.is_finite() { rho as f32 } else { 0.0 },
         residual: (ss / sel.len().max(1) as f64).sqrt() as f32,
         used: sel.len().min(u16::MAX as usize) as u16,
-        black: black_terms(eff, &sel, val, ss),
+        black: if black {
+            black_terms(eff, &sel, val, ss)
+        } else {
+            [0.0; 4]
+        },
     }
 }
 

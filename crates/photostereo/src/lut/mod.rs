@@ -372,20 +372,18 @@ pub(crate) fn cast_shadowed(t: f32, floor: f32, pred: f32, level: f32) -> bool {
 
 /// The black level to take off tables and targets before matching, where the match
 /// fits a brightness (normalised matching, the diffuse/specular split, a mixture of two
-/// tables): the smallest of the lights' floors ([`Table::floors`]) over the tables, for
-/// every light, when it is above 0; else `None`. A brightness scales only the light
-/// above the black level: with a 3% black level the textured plastic of
-/// `tests/camera_mitsuba.rs` went from 0.237° (split, no black level) to 2.48°. One
-/// level for all lights, as a camera has: a light near the view axis lights the whole
-/// table, and its floor is its dimmest lit sample, not the black level. Where the
-/// brightness is 1 (plain matching) the offset cancels and nothing is taken off.
+/// tables): the smaller of the tables' [`Table::black_level`], for every light, when it
+/// is above 0; else `None`. A brightness scales only the light above the black level:
+/// with a 3% black level the textured plastic of `tests/camera_mitsuba.rs` went from
+/// 0.237° (split, no black level) to 2.48°. Where the brightness is 1 (plain matching)
+/// the offset cancels and nothing is taken off.
 fn black_level(tables: &[Table], opts: &Options) -> Option<Vec<f32>> {
     let fits_brightness = opts.normalize || opts.split_specular || tables.len() == 2;
     if !fits_brightness {
         return None;
     }
     let k = tables.first()?.k;
-    let level = (tables.iter().flat_map(Table::floors)).fold(f32::INFINITY, f32::min);
+    let level = (tables.iter().map(Table::black_level)).fold(f32::INFINITY, f32::min);
     (level > 0.0 && level.is_finite()).then(|| vec![level; k])
 }
 

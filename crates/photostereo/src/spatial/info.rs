@@ -119,8 +119,8 @@ pub struct Reflectance<'a> {
     /// Each light's floor (`Table::floors`): the cast-shadow test measures "dark" above
     /// it, as the lookup does.
     floors: Vec<f32>,
-    /// The camera's black level, the smallest floor (0 without one): a brightness c
-    /// scales the light above it, p = b + c·(I − b), as the lookup matches it.
+    /// The camera's black level ([`Table::black_level`]): a brightness c scales the light
+    /// above it, p = b + c·(I − b), as the lookup matches it.
     black: f32,
 }
 
@@ -140,12 +140,11 @@ impl<'a> Reflectance<'a> {
     /// 0.799°).
     pub fn new(table: &'a Table, noise: &NoiseModel) -> Self {
         let clean = noise.sigma(0.0) < DARK * table.peak();
-        let floors = table.floors();
         Reflectance {
             table,
             rim: if clean { Rim::fit(table) } else { None },
-            black: floors.iter().copied().fold(f32::INFINITY, f32::min),
-            floors,
+            floors: table.floors(),
+            black: table.black_level(),
         }
     }
 }
@@ -374,11 +373,7 @@ impl<'a> TablePixel<'a> {
             table,
             rim,
             floors: &refl.floors,
-            black: if normalized && refl.black.is_finite() {
-                refl.black.max(0.0)
-            } else {
-                0.0
-            },
+            black: if normalized { refl.black } else { 0.0 },
             noise,
             censor,
             shadow_level,

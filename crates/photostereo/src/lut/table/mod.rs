@@ -276,6 +276,19 @@ impl Table {
             .collect()
     }
 
+    /// The camera's black level: the smallest of the lights' [`Table::floors`], one level
+    /// for all lights as a camera has (a light near the view axis lights the whole
+    /// table, and its floor is its dimmest lit sample, not the black level); 0 without
+    /// one.
+    pub fn black_level(&self) -> f32 {
+        let level = self.floors().into_iter().fold(f32::INFINITY, f32::min);
+        if level.is_finite() {
+            level
+        } else {
+            0.0
+        }
+    }
+
     /// The table with `floors` (one per light, e.g. [`Table::floors`]) taken off every
     /// sample of its window and entries: the light above a camera's black level, which
     /// is what scales with a target's albedo (a fit with a free brightness matches
