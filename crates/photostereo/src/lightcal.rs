@@ -106,12 +106,7 @@ pub fn from_matte_sphere(
     for k in 0..stack.k {
         levels.extend(fit_matte_light(stack, &pixels, k, opts, None)?.1);
     }
-    let black = if levels.is_empty() {
-        0.0
-    } else {
-        let mid = levels.len() / 2;
-        *levels.select_nth_unstable_by(mid, f32::total_cmp).1
-    };
+    let black = median(&mut levels).unwrap_or(0.0);
     let mut directions = Vec::with_capacity(stack.k);
     let mut strengths = Vec::with_capacity(stack.k);
     for k in 0..stack.k {
@@ -268,8 +263,13 @@ fn shadow_level(
     if dark.len() < MIN_SHADOW_PIXELS {
         return None;
     }
-    let mid = dark.len() / 2;
-    Some(dark.select_nth_unstable_by(mid, f32::total_cmp).1.max(0.0))
+    median(&mut dark).map(|m| m.max(0.0))
+}
+
+/// The median (the upper one of an even count) of `v`, reordered; `None` when empty.
+fn median(v: &mut [f32]) -> Option<f32> {
+    let mid = v.len() / 2;
+    (!v.is_empty()).then(|| *v.select_nth_unstable_by(mid, f32::total_cmp).1)
 }
 
 /// Depth into the attached shadow (fraction of the fit's peak) of the pixels whose

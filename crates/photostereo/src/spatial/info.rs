@@ -484,8 +484,9 @@ impl<'a> TablePixel<'a> {
     }
 
     /// Whether the outline pixel's tuple `t` is partly background (module docs): the
-    /// dimmed prediction f + g·(p − f), p the prediction at brightness `scale`, fits clearly better than p. If
-    /// so, `out` holds the tuple corrected for the coverage, f + (t − f)/g.
+    /// dimmed prediction f + g·(p − f), p the prediction at brightness `scale`, fits
+    /// clearly better than p. If so, `out` holds the tuple corrected for the coverage,
+    /// f + (t − f)/g.
     fn uncovered(&self, t: &[f32], v: &[f32], scale: f32, out: &mut [f32]) -> bool {
         let finite = |x: f32| if x.is_finite() { x } else { 0.0 };
         let (mut num, mut den) = (0.0f64, 0.0f64);

@@ -299,14 +299,8 @@ const OUTSIDE_SHARE: f64 = 0.2;
 /// noise: a clean image is the other steps' case).
 fn background_noise(values: &[f32], keep: &[bool]) -> Option<(f32, f32)> {
     let mut v: Vec<f32> = searched(values, keep).collect();
-    if v.is_empty() {
-        return None;
-    }
-    let at = |v: &mut Vec<f32>, p: f64| {
-        let i = ((v.len() - 1) as f64 * p) as usize;
-        *v.select_nth_unstable_by(i, f32::total_cmp).1
-    };
-    let (p2, p10) = (at(&mut v, 0.02), at(&mut v, 0.10));
+    let p2 = percentile(&mut v, 0.02)?;
+    let p10 = percentile(&mut v, 0.10)?;
     let sd = (p10 - p2) / (2.054 - 1.2816);
     (sd > 0.0).then_some((p10 + 1.2816 * sd, sd))
 }
@@ -315,10 +309,15 @@ fn background_noise(values: &[f32], keep: &[bool]) -> Option<(f32, f32)> {
 /// none is searched. Also the contrast fallback's background level (module `detect`).
 pub(super) fn background_percentile(values: &[f32], keep: &[bool]) -> Option<f32> {
     let mut v: Vec<f32> = searched(values, keep).collect();
+    percentile(&mut v, BACKGROUND_PERCENTILE)
+}
+
+/// The value at rank ⌊(n − 1)·`p`⌋ of the n values `v` (reordered); `None` when empty.
+fn percentile(v: &mut [f32], p: f64) -> Option<f32> {
     if v.is_empty() {
         return None;
     }
-    let i = ((v.len() - 1) as f64 * BACKGROUND_PERCENTILE) as usize;
+    let i = ((v.len() - 1) as f64 * p) as usize;
     Some(*v.select_nth_unstable_by(i, f32::total_cmp).1)
 }
 
