@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 
 mod advice;
 mod bench;
+mod black_level;
 mod calibrate;
 mod demo;
 mod eval;

@@ -79,11 +79,12 @@ pub struct Args {
     /// TARGET_DIR/light_directions.txt.
     #[arg(long, value_name = "FILE", requires = "lambertian")]
     lights: Option<PathBuf>,
-    /// With --lambertian: the camera's black level, taken off every sample before the
-    /// fit: `auto` (the default: measured from the images and taken off when clearly
-    /// above 0; a line says what was found), `none`, or a level as a fraction of full
-    /// scale (e.g. 0.03). A dark offset reads as light no normal explains.
-    #[arg(long, value_name = "LEVEL", requires = "lambertian")]
+    #[arg(
+        long,
+        value_name = "LEVEL",
+        requires = "lambertian",
+        help = crate::black_level::HELP
+    )]
     black_level: Option<String>,
     /// Keep every pixel's own normal: no spatial stage (by default pixels whose data say
     /// little about their normal take it from their neighbours; see `photostereo::spatial`).
@@ -121,6 +122,8 @@ struct Results {
 
 /// Run the subcommand.
 pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
+    // a bad --black-level is refused before any image is read
+    let black = crate::black_level::parse(args.black_level.as_deref())?;
     let load = io::LoadOptions {
         require_lights: args.lambertian && args.lights.is_none(),
         mask_path: args.mask.clone(),
@@ -137,7 +140,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         Mask::full(data.stack.width, data.stack.height)
     });
     let results = if args.lambertian {
-        lambertian_normals(&data, &mask, &args, global)?
+        lambertian_normals(&data, &mask, (&args, black), global)?
     } else {
         lookup_normals(&args, &data.stack, &mask, global)?
     };
@@ -276,7 +279,7 @@ fn say_spatial(out: &normals::Output, mask: &Mask, global: Global) {
 fn lambertian_normals(
     data: &io::Dataset,
     mask: &Mask,
-    args: &Args,
+    (args, black): (&Args, lambertian::BlackLevelChoice),
     global: Global,
 ) -> anyhow::Result<Results> {
     let from_file = match &args.lights {
@@ -287,20 +290,19 @@ fn lambertian_normals(
         .as_ref()
         .or(data.lights.as_ref())
         .context("--lambertian needs TARGET_DIR/light_directions.txt or --lights FILE")?;
-    let opts = if args.plain {
+    let mut opts = if args.plain {
         lambertian::Options::plain()
     } else {
         lambertian::Options::default()
     };
-    let black = black_level(data, mask, lights, args.black_level.as_deref(), global)?;
-    let mut above;
-    let stack = if black > 0.0 {
-        above = data.stack.clone();
-        above.data.iter_mut().for_each(|v| *v -= black);
-        &above
-    } else {
-        &data.stack
-    };
+    // measured on the robust fits whatever the solver (Options::for_black_level); the
+    // level is taken off by the solve and the spatial stage, not from a copy of the stack
+    let stack = &data.stack;
+    let decision = lambertian::decide_black_level(black, (stack, mask, lights), &opts, 1.0)?;
+    if !global.quiet && (decision.measured.is_some() || decision.level > 0.0) {
+        println!("{}", decision.describe());
+    }
+    opts.black_level = decision.level;
     let input = normals::Input::Lambertian(lights, &opts);
     let out = normals::pixelwise(stack, mask, &input, &NoProgress)?;
     if !global.quiet {
@@ -323,50 +325,6 @@ fn lambertian_normals(
         grays,
     })
 }
-
-/// The black level to take off the samples (fraction of full scale) for `--black-level
-/// LEVEL` (`None`: auto).
-fn black_level(
-    data: &io::Dataset,
-    mask: &Mask,
-    lights: &photostereo::Lights,
-    level: Option<&str>,
-    global: Global,
-) -> anyhow::Result<f32> {
-    match level.unwrap_or("auto") {
-        "none" => Ok(0.0),
-        "auto" => {
-            // measured on the robust fits whatever the solver (a plain fit keeps the
-            // shadows, which the black level's model does not hold)
-            let opts = lambertian::Options::default();
-            let b = lambertian::estimate_black_level(&data.stack, mask, lights, &opts)?;
-            let taken = b.is_significant() && b.value <= MAX_BLACK_LEVEL;
-            if !global.quiet {
-                println!(
-                    "black level: {:.4} of full scale (standard error {:.1e}) measured from the \
-                     images; {}",
-                    b.value,
-                    b.standard_error,
-                    if taken { "taken off" } else { "none taken off" }
-                );
-            }
-            Ok(if taken { b.value } else { 0.0 })
-        }
-        text => text
-            .parse::<f32>()
-            .ok()
-            .filter(|v| (0.0..MAX_BLACK_LEVEL).contains(v))
-            .with_context(|| {
-                format!(
-                    "--black-level {text}: give auto, none, or a level in [0, {MAX_BLACK_LEVEL}) \
-                     as a fraction of full scale (e.g. 0.03)"
-                )
-            }),
-    }
-}
-
-/// Largest black level taken (fraction of full scale): cameras' are a few percent.
-const MAX_BLACK_LEVEL: f32 = 0.25;
 
 fn write_results(dir: &Path, r: &Results, mask: &Mask) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

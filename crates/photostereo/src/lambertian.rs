@@ -45,6 +45,13 @@ use crate::image::{GrayImage, Image, ImageStack, Lights, Mask, NormalMap};
 use crate::sphere::fit::{accumulate, solve3};
 use rayon::prelude::*;
 
+mod black_level;
+use black_level::black_terms;
+pub use black_level::{
+    decide_black_level, estimate_black_level, BlackLevel, BlackLevelChoice, BlackLevelDecision,
+    BlackLevelSums, MAX_BLACK_LEVEL,
+};
+
 /// Settings of [`solve`]. `Default` is the robust solver; [`Options::plain`] is
 /// classic least squares over all samples.
 #[derive(Clone, Debug)]
@@ -96,6 +103,21 @@ impl Options {
             residual_rejection: 0.0,
             iterations: 0,
             ..Options::default()
+        }
+    }
+
+    /// The options the black level is measured with ([`estimate_black_level`]): these
+    /// when they reject shadows and highlights, else the robust defaults with this
+    /// [`Options::black_level`] — a plain fit keeps the shadows, which the offset's model
+    /// (every used sample lit) does not hold.
+    pub fn for_black_level(&self) -> Options {
+        if self.reject_shadows && self.reject_highlights {
+            self.clone()
+        } else {
+            Options {
+                black_level: self.black_level,
+                ..Options::default()
+            }
         }
     }
 }
@@ -156,88 +178,6 @@ fn fit_all(
         .collect()
 }
 
-/// The camera's black level estimated from the images ([`estimate_black_level`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BlackLevel {
-    /// The level (image units) found above the [`Options::black_level`] already taken
-    /// off.
-    pub value: f32,
-    /// Its standard error (image units), from the fits' residuals.
-    pub standard_error: f32,
-    /// Pixels that carried it (fits on at least four samples).
-    pub pixels: usize,
-}
-
-impl BlackLevel {
-    /// Whether the level is positive and at least [`BlackLevel::SIGNIFICANCE`] standard
-    /// errors from 0.
-    pub fn is_significant(&self) -> bool {
-        self.value > 0.0 && self.value >= Self::SIGNIFICANCE * self.standard_error
-    }
-
-    /// Standard errors a level must stand above 0 to be taken.
-    pub const SIGNIFICANCE: f32 = 5.0;
-}
-
-/// Estimate a black level β common to all images (a camera's dark offset: every sample
-/// reads β + ρ e max(0, n·l)) from the robust fits of [`solve`]. With the samples of
-/// pixel p that its fit used, Iₚ = β·1 + Lₚ bₚ; projecting out bₚ (variable projection,
-/// P⊥ = I − Lₚ(LₚᵀLₚ)⁻¹Lₚᵀ, u = P⊥1) leaves β = Σₚ⟨Iₚ, uₚ⟩ / Σₚ⟨1, uₚ⟩, with variance
-/// σ²/Σₚ⟨1, uₚ⟩ (σ² the pooled residual variance). Pixels need four samples. When the
-/// lights lie on a cone about one axis (a ring at one elevation), 1 is in the span of
-/// the lights and β cannot be told from the normals' tilt: the standard error is then
-/// infinite.
-///
-/// Errors: as [`solve`].
-pub fn estimate_black_level(
-    stack: &ImageStack,
-    mask: &Mask,
-    lights: &Lights,
-    opts: &Options,
-) -> Result<BlackLevel> {
-    let eff = check_inputs(stack, mask, lights, opts)?;
-    let fits = fit_all(stack, mask, &eff, opts, true);
-    let mut sum = [0.0f64; 4];
-    let mut pixels = 0usize;
-    for f in fits.iter().filter(|f| f.black[1] > 0.0) {
-        (sum.iter_mut().zip(f.black)).for_each(|(a, b)| *a += b);
-        pixels += 1;
-    }
-    let [num, den, ss, dof] = sum;
-    // a sum of u's under 1e-6 per pixel: 1 is (nearly) in the lights' span
-    let identified = den > 1e-6 * pixels as f64;
-    let value = if identified { num / den } else { 0.0 };
-    let variance = if dof > 0.0 { ss / dof } else { f64::INFINITY };
-    let se = if identified {
-        (variance / den).sqrt()
-    } else {
-        f64::INFINITY
-    };
-    Ok(BlackLevel {
-        value: value as f32,
-        standard_error: se as f32,
-        pixels,
-    })
-}
-
-/// A pixel's terms of [`estimate_black_level`] over the samples `sel` with residual sum
-/// of squares `ss`: [Σ I·u, Σ u, ss, dof] (u = P⊥1; zeros with fewer than 4 samples).
-fn black_terms(eff: &[[f64; 3]], sel: &[usize], value: impl Fn(usize) -> f64, ss: f64) -> [f64; 4] {
-    if sel.len() < 4 {
-        return [0.0; 4];
-    }
-    let Some(c) = least_squares(eff, sel, |_| 1.0) else {
-        return [0.0; 4];
-    };
-    let (mut num, mut den) = (0.0, 0.0);
-    for &i in sel {
-        let u = 1.0 - dot(eff[i], c);
-        num += value(i) * u;
-        den += u;
-    }
-    [num, den, ss, (sel.len() - 3) as f64]
-}
-
 /// Validate and return the effective light vectors Lᵢ = eᵢ lᵢ.
 fn check_inputs(
     stack: &ImageStack,
@@ -245,11 +185,20 @@ fn check_inputs(
     lights: &Lights,
     opts: &Options,
 ) -> Result<Vec<[f64; 3]>> {
-    if stack.k < 3 {
+    let eff = check_lights(stack.k, lights, opts)?;
+    mask.check_size(stack.width, stack.height, "mask")?;
+    mask.check_not_empty("mask")?;
+    Ok(eff)
+}
+
+/// Validate the lights (and `min_lights`) for `k` images and return the effective light
+/// vectors Lᵢ = eᵢ lᵢ.
+fn check_lights(k: usize, lights: &Lights, opts: &Options) -> Result<Vec<[f64; 3]>> {
+    if k < 3 {
         return Err(Error::LightCount {
             what: "Lambertian photometric stereo".into(),
             expected: 3,
-            found: stack.k,
+            found: k,
             fix: "at least 3 images under 3 non-coplanar lights are needed".into(),
         });
     }
@@ -257,10 +206,10 @@ fn check_inputs(
         ("light directions", lights.directions.len()),
         ("light intensities", lights.intensities.len()),
     ] {
-        if n != stack.k {
+        if n != k {
             return Err(Error::LightCount {
                 what: what.into(),
-                expected: stack.k,
+                expected: k,
                 found: n,
                 fix: "give one light per image, in the order of the images".into(),
             });
@@ -272,8 +221,6 @@ fn check_inputs(
             "a normal and an albedo need at least 3 samples: use min_lights >= 3",
         ));
     }
-    mask.check_size(stack.width, stack.height, "mask")?;
-    mask.check_not_empty("mask")?;
     let eff: Vec<[f64; 3]> = lights
         .directions
         .iter()

@@ -40,7 +40,9 @@ pub enum Input<'a> {
     /// A lookup prepared beforehand ([`lut::Lookup`]), for several targets with the
     /// same tables.
     Lookup(&'a lut::Lookup<'a>),
-    /// Lambertian least squares with known lights (unit directions, surface → light).
+    /// Lambertian least squares with known lights (unit directions, surface → light);
+    /// the options' black level is taken off the samples by the solve and by the
+    /// spatial stage's noise measurement alike (no copy of the stack is needed).
     Lambertian(&'a Lights, &'a lambertian::Options),
 }
 
@@ -189,8 +191,8 @@ pub fn spatial_stage(
     opts: &Options,
     mut out: Output,
 ) -> Result<Output> {
-    if let Input::Lambertian(lights, _) = input {
-        return after_lambertian(stack, mask, lights, opts, out);
+    if let Input::Lambertian(lights, o) = input {
+        return after_lambertian(stack, mask, (lights, o.black_level), opts, out);
     }
     match input.tables() {
         Some([table]) => after_lookup(stack, mask, table, opts, out),
@@ -239,15 +241,18 @@ fn after_lookup(
     Ok(out)
 }
 
-/// The stage after a Lambertian solve with `lights` (its albedo in `out`).
+/// The stage after a Lambertian solve with `lights` (its albedo in `out`) on the samples
+/// less the black level `black` (its [`lambertian::Options::black_level`]). The evidence
+/// reads no sample (only the normals, the albedo and the noise); the noise is measured
+/// above the black level, as the solve saw the samples.
 fn after_lambertian(
     stack: &ImageStack,
     mask: &Mask,
-    lights: &Lights,
+    (lights, black): (&Lights, f32),
     opts: &Options,
     mut out: Output,
 ) -> Result<Output> {
-    let noise = NoiseModel::estimate(stack, mask);
+    let noise = NoiseModel::estimate_above(stack, mask, black);
     let ones;
     let albedo = match &out.albedo {
         Some(a) => a,

@@ -4,7 +4,9 @@ mod common;
 use common::angle_deg;
 use photostereo::error::Error;
 use photostereo::image::{ImageStack, Lights, Mask, NormalMap};
-use photostereo::lambertian::{estimate_black_level, solve, BlackLevel, Options, Output};
+use photostereo::lambertian::{
+    estimate_black_level, solve, BlackLevel, BlackLevelSums, Options, Output,
+};
 use photostereo::synth::{default_lights, render, Material, Scene, SceneOptions, Shape, ShapeKind};
 
 /// A noise-free `size`×`size` render of the preset `kind` in `material` under `k`
@@ -265,4 +267,43 @@ fn a_black_level_under_a_ring_of_lights_is_not_identified() {
     let est = black_level_of(&scene);
     println!("ring of lights, black level 0.03: {est:?}");
     assert!(!est.is_significant(), "{est:?}");
+}
+
+/// Rows `r0..r1` of `stack` and of `mask`.
+fn band_of(stack: &ImageStack, mask: &Mask, r0: usize, r1: usize) -> (ImageStack, Mask) {
+    let (w, k) = (stack.width, stack.k);
+    let band = ImageStack {
+        width: w,
+        height: r1 - r0,
+        k,
+        data: stack.data[r0 * w * k..r1 * w * k].to_vec(),
+        names: Vec::new(),
+    };
+    let m = Mask::from_vec(w, r1 - r0, mask.data[r0 * w..r1 * w].to_vec()).unwrap();
+    (band, m)
+}
+
+#[test]
+fn a_black_level_summed_over_bands_is_that_of_the_whole_stack() {
+    // what `run` does on a capture read by row bands: the sums band by band, in order
+    let opts = scene_options(ShapeKind::Blob, 96, Material::lambertian(0.8), 12);
+    let mut scene = render(&opts).unwrap();
+    scene.stack.data.iter_mut().for_each(|v| *v += 0.03);
+    let whole = black_level_of(&scene);
+    assert!(whole.is_significant(), "{whole:?}");
+    let h = scene.stack.height;
+    // bands of 1 row, of rows with no mask pixel, uneven, and the whole stack as one
+    for rows in [1, 7, 40, h] {
+        let mut sums = BlackLevelSums::new(&scene.lights, &Options::default()).unwrap();
+        for r0 in (0..h).step_by(rows) {
+            let (band, m) = band_of(&scene.stack, &scene.mask, r0, (r0 + rows).min(h));
+            sums.add(&band, &m).unwrap();
+        }
+        assert_eq!(sums.finish(), whole, "bands of {rows} rows");
+    }
+    // a band of other images than the lights is refused, not mixed in
+    let mut sums = BlackLevelSums::new(&scene.lights, &Options::default()).unwrap();
+    let few = ImageStack::zeros(scene.stack.width, 2, 3);
+    let err = sums.add(&few, &Mask::full(few.width, 2)).unwrap_err();
+    assert!(matches!(err, Error::LightCount { .. }), "{err}");
 }

@@ -76,6 +76,15 @@ pub struct Args {
     /// Remove interreflections (Nayar–Ikeuchi–Kanade iteration; Lambertian only).
     #[arg(long)]
     pub interreflections: bool,
+    // Lambertian only (checked in `options`: --chrome implies --lambertian); the
+    // interreflection iteration models the images without an offset
+    #[arg(
+        long,
+        value_name = "LEVEL",
+        conflicts_with = "interreflections",
+        help = crate::black_level::HELP
+    )]
+    pub black_level: Option<String>,
     /// Facet size in pixels for --interreflections (1 = per pixel; larger is faster).
     /// Default: the smallest block (at least 2) giving at most 4096 facet cells.
     #[arg(long, requires = "interreflections")]
@@ -160,6 +169,12 @@ fn parse_memory(text: &str) -> std::result::Result<u64, String> {
 pub fn run(mut args: Args, global: Global) -> Result<()> {
     crate::check_output_dir(&args.out)?;
     args.lambertian |= args.chrome.is_some();
+    if args.black_level.is_some() && !args.lambertian {
+        anyhow::bail!(
+            "--black-level is for Lambertian photometric stereo: add --lambertian (or --chrome), \
+             or leave it out (a lookup table carries the sphere's own black level)"
+        );
+    }
     let inputs = inputs(&args)?;
     let opts = options(&args)?;
     // a sphere not found: main's hint names --sphere-region, --sphere-mask and --circle,
@@ -215,6 +230,7 @@ fn options(args: &Args) -> Result<pipeline::Options> {
             .map(integrate::Method::from_name)
             .transpose()?,
         interreflections: args.interreflections,
+        black_level: crate::black_level::parse(args.black_level.as_deref())?,
         ..Default::default()
     };
     if args.no_spatial {

@@ -371,6 +371,7 @@ fn lookup_pass(
         confidence: Some(confidence),
         depth: None,
         spatial: None,
+        rows: Vec::new(),
     })
 }
 
@@ -525,7 +526,8 @@ fn own_cost_rise(
     Ok(rise)
 }
 
-/// The Lambertian solve by bands, then the spatial stage (its evidence needs the
+/// The Lambertian solve by bands (after a pass that measures the black level when
+/// [`Options::black_level`] is `Auto`), then the spatial stage (its evidence needs the
 /// normals and the noise only, not the images).
 fn lambertian_stages(
     st: &mut Stages,
@@ -537,36 +539,17 @@ fn lambertian_stages(
     let mask = cap.mask.clone();
     mask.check_not_empty("mask")?;
     let (w, h, k) = (mask.width, mask.height, cap.ds.header.k());
-    let mut sampler = NoiseSampler::new(&mask, k);
-    let (buf, step) = preview;
-    let mut est = st.run("Lambertian photometric stereo", |p| {
-        let mut normals = NormalMap::filled(w, h, [0.0; 3]);
-        let mut albedo = GrayImage::filled(w, h, 0.0);
-        cap.pass(
-            "Lambertian",
-            p,
-            |_, _| true,
-            |band, r0| {
-                sampler.feed(band, r0);
-                decimate(buf, band, r0, step);
-                let bm = rows_of(&mask, r0, band.height);
-                if bm.count() == 0 {
-                    return Ok(());
-                }
-                let out = lambertian::solve(band, &bm, lights, &opts.lambertian)?;
-                put_rows(&mut normals, &out.normals, r0);
-                put_rows(&mut albedo, &out.albedo, r0);
-                Ok(())
-            },
-        )?;
-        Ok(Estimate {
-            normals,
-            albedo: Some(albedo),
-            confidence: None,
-            depth: None,
-            spatial: None,
-        })
+    let mut lo = opts.lambertian.clone();
+    let (mut est, sampler, decision) = st.run("Lambertian photometric stereo", |p| {
+        let d = black_level(cap, lights, opts, &mask, p)?;
+        stages::note_black_level(&d, p);
+        lo.black_level = d.level;
+        // the noise of the samples as the solve sees them, the level taken off
+        let mut sampler = NoiseSampler::new(&mask, k).above(d.level);
+        let est = lambertian_pass(cap, lights, &lo, &mask, &mut sampler, preview, p)?;
+        Ok((est, sampler, d))
     })?;
+    est.rows.push(stages::black_level_row(&decision));
     st.run(super::spatial_stage::name(opts), |_| {
         let noise = sampler.finish();
         // from_lambertian takes the images' size from the stack, not their samples
@@ -594,6 +577,72 @@ fn lambertian_stages(
         Ok(est)
     })
 }
+
+/// The black level of [`Options::black_level`] in the capture's units (its full scale is
+/// the image scale): for `Auto`, measured by one pass over the bands that hold mask
+/// pixels ([`lambertian::BlackLevelSums`], the estimate of the whole stack).
+fn black_level(
+    cap: &mut Capture,
+    lights: &Lights,
+    opts: &Options,
+    mask: &Mask,
+    p: &dyn Progress,
+) -> Result<lambertian::BlackLevelDecision> {
+    use lambertian::BlackLevelDecision as Decision;
+    opts.black_level.check()?;
+    let (base, full_scale) = (opts.lambertian.black_level, cap.scale.unwrap_or(1.0));
+    if let Some(d) = Decision::without_measuring(opts.black_level, base, full_scale) {
+        return Ok(d);
+    }
+    let mut sums = lambertian::BlackLevelSums::new(lights, &opts.lambertian.for_black_level())?;
+    let need = |r0: usize, r1: usize| any_in(mask, r0, r1);
+    cap.pass("black level", p, need, |band, r0| {
+        sums.add(band, &rows_of(mask, r0, band.height))
+    })?;
+    Ok(Decision::from_measured(sums.finish(), base, full_scale))
+}
+
+/// The Lambertian solve with `lo` band by band into H×W maps; each band also feeds the
+/// noise `sampler` and the report's decimated `preview`.
+fn lambertian_pass(
+    cap: &mut Capture,
+    lights: &Lights,
+    lo: &lambertian::Options,
+    mask: &Mask,
+    sampler: &mut NoiseSampler,
+    (buf, step): (&mut Vec<f32>, usize),
+    p: &dyn Progress,
+) -> Result<Estimate> {
+    let (w, h) = (mask.width, mask.height);
+    let mut normals = NormalMap::filled(w, h, [0.0; 3]);
+    let mut albedo = GrayImage::filled(w, h, 0.0);
+    cap.pass(
+        "Lambertian",
+        p,
+        |_, _| true,
+        |band, r0| {
+            sampler.feed(band, r0);
+            decimate(buf, band, r0, step);
+            let bm = rows_of(mask, r0, band.height);
+            if bm.count() == 0 {
+                return Ok(());
+            }
+            let out = lambertian::solve(band, &bm, lights, lo)?;
+            put_rows(&mut normals, &out.normals, r0);
+            put_rows(&mut albedo, &out.albedo, r0);
+            Ok(())
+        },
+    )?;
+    Ok(Estimate {
+        normals,
+        albedo: Some(albedo),
+        confidence: None,
+        depth: None,
+        spatial: None,
+        rows: Vec::new(),
+    })
+}
+
 /// The images' file names (as [`ImageStack::names`]), in light order: what a light file
 /// naming its images (`.lp`) is matched against.
 fn file_names(ds: &DatasetBands) -> Vec<String> {

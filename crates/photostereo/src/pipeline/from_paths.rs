@@ -26,7 +26,9 @@ pub fn run(inputs: &Inputs, out: &Path, opts: &Options, progress: &dyn Progress)
     let loaded = super::load::load(inputs, opts, progress)?;
     let mut opts = opts.clone();
     opts.nik.scale_known |= loaded.scale_known;
-    let mut output = super::solve(&loaded.job, &opts, progress)?;
+    // a black level given as a fraction of full scale is of the images before the scale
+    let full_scale = loaded.image_scale.map_or(1.0, |(s, _)| s);
+    let mut output = super::solve_scaled(&loaded.job, &opts, full_scale, progress)?;
     if let Some((scale, from)) = loaded.image_scale {
         output.figures.push(Figure::new(
             "image scale (images ×)",

@@ -290,6 +290,8 @@ pub(super) fn check(inputs: &Inputs, opts: &Options) -> Result<()> {
     if let Some(c) = &opts.curvature {
         c.check()?;
     }
+    // before any pixel is read
+    opts.black_level.check()?;
     let ways = usize::from(inputs.sphere.is_some())
         + usize::from(inputs.calibration.is_some())
         + usize::from(inputs.lambertian);

@@ -133,6 +133,15 @@ pub struct Options {
     pub lookup: lut::Options,
     /// Settings of Lambertian photometric stereo (without interreflection removal).
     pub lambertian: lambertian::Options,
+    /// The camera's black level in Lambertian photometric stereo (without interreflection
+    /// removal; not used by a lookup, whose table carries the sphere's own): `Auto` (the
+    /// default) measures it ([`lambertian::estimate_black_level`], band by band in a run
+    /// by bands) and takes it off when [`lambertian::BlackLevel::is_taken`]; `None` takes
+    /// nothing off; `Given(v)` takes off v, a fraction of the images' full scale (times
+    /// the image scale of a run from paths). The level taken is set as
+    /// `lambertian.black_level` (Auto and None add to the one set there) and reported in
+    /// the figures' "black level" row.
+    pub black_level: lambertian::BlackLevelChoice,
     /// Settings of the interreflection iteration; its integrator is [`Options::method`]
     /// (or the one chosen from the mask).
     pub nik: interreflect::NikOptions,
@@ -190,6 +199,7 @@ impl Default for Options {
             build: lut::BuildOptions::default(),
             lookup: lut::Options::default(),
             lambertian: lambertian::Options::default(),
+            black_level: lambertian::BlackLevelChoice::Auto,
             nik: interreflect::NikOptions::default(),
             spatial: Some(spatial::Options::default()),
             memory: None,
@@ -280,6 +290,17 @@ pub struct Output {
 /// Errors: those of the stages, wrapped with the stage's name ([`Error::Context`]);
 /// [`Error::InvalidInput`] for interreflection removal on a lookup job.
 pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Output> {
+    solve_scaled(job, opts, 1.0, progress)
+}
+
+/// [`solve`] on images multiplied by an image scale: `full_scale` is the images' full
+/// scale in the job's units (what a black level's "fraction of full scale" is of).
+fn solve_scaled(
+    job: &Job,
+    opts: &Options,
+    full_scale: f32,
+    progress: &dyn Progress,
+) -> Result<Output> {
     if opts.interreflections && !matches!(job.normals, Normals::Lambertian { .. }) {
         return Err(Error::invalid(
             "interreflection removal",
@@ -294,7 +315,7 @@ pub fn solve(job: &Job, opts: &Options, progress: &dyn Progress) -> Result<Outpu
     let method = opts
         .method
         .unwrap_or_else(|| integrate::choose_method(&job.mask));
-    let normals = stages::normals(&mut st, job, opts, method)?;
+    let normals = stages::normals(&mut st, job, opts, method, full_scale)?;
     finish(st, job, opts, method, normals, None)
 }
 
@@ -451,6 +472,7 @@ fn report_rows(job: &Job, opts: &Options, done: &Finished<'_>) -> (Vec<Figure>, 
         done.accuracy,
         done.ir,
     ));
+    figures.extend(est.rows.iter().cloned());
     if let Some(info) = &est.spatial {
         figures.extend(spatial_stage::rows(info, &job.mask));
     }
@@ -494,4 +516,7 @@ struct Estimate {
     depth: Option<DepthMap>,
     /// The spatial stage's products (when it ran).
     spatial: Option<spatial_stage::SpatialInfo>,
+    /// Rows the normals stage adds to the figures (the black level a Lambertian solve
+    /// took off).
+    rows: Vec<Figure>,
 }

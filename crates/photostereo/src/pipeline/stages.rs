@@ -3,12 +3,12 @@
 
 use super::timer::Stages;
 use super::{
-    spatial_stage, Accuracy, Estimate, Interreflections, Job, Normals, Options, Plot, Truth,
+    spatial_stage, Accuracy, Estimate, Figure, Interreflections, Job, Normals, Options, Plot, Truth,
 };
 use crate::error::Result;
 use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::Progress;
-use crate::{eval, integrate, interreflect, lut, normals, sphere};
+use crate::{eval, integrate, interreflect, lambertian, lut, normals, sphere};
 
 /// Stages before the accuracy one: normals (1 to 4, the spatial stage included), integration (unless NIK made the
 /// depth), mesh.
@@ -33,6 +33,7 @@ pub(super) fn normals(
     job: &Job,
     opts: &Options,
     method: integrate::Method,
+    full_scale: f32,
 ) -> Result<NormalsResult> {
     Ok(match &job.normals {
         Normals::Lookup {
@@ -57,8 +58,7 @@ pub(super) fn normals(
             (est, cal.detection.clone(), None)
         }
         Normals::Lambertian { lights } if !opts.interreflections => {
-            let input = normals::Input::Lambertian(lights, &opts.lambertian);
-            let est = normals_of(st, job, opts, &input, "Lambertian photometric stereo")?;
+            let est = lambertian(st, job, lights, opts, full_scale)?;
             (est, None, None)
         }
         Normals::Lambertian { lights } => {
@@ -121,6 +121,56 @@ fn normals_of(
         }
         normals::pixelwise(stack, mask, input, p)
     })?;
+    spatial_of(st, job, opts, input, out)
+}
+
+/// The Lambertian solve with the black level of [`Options::black_level`] (measured on
+/// the whole stack for `Auto`; `full_scale`: the images' full scale in the job's units),
+/// then the spatial stage; the level taken is a row of the figures.
+fn lambertian(
+    st: &mut Stages,
+    job: &Job,
+    lights: &Lights,
+    opts: &Options,
+    full_scale: f32,
+) -> Result<Estimate> {
+    let (stack, mask) = (&job.target, &job.mask);
+    let mut lo = opts.lambertian.clone();
+    let (out, decision) = st.run("Lambertian photometric stereo", |p| {
+        let data = (stack, mask, lights);
+        let d = lambertian::decide_black_level(opts.black_level, data, &lo, full_scale)?;
+        note_black_level(&d, p);
+        lo.black_level = d.level;
+        let input = normals::Input::Lambertian(lights, &lo);
+        Ok((normals::pixelwise(stack, mask, &input, p)?, d))
+    })?;
+    let input = normals::Input::Lambertian(lights, &lo);
+    let mut est = spatial_of(st, job, opts, &input, out)?;
+    est.rows.push(black_level_row(&decision));
+    Ok(est)
+}
+
+/// Says on `p` the black level measured or given (nothing when none was asked for).
+pub(super) fn note_black_level(d: &lambertian::BlackLevelDecision, p: &dyn Progress) {
+    if d.measured.is_some() || d.level > 0.0 {
+        p.note(&d.describe());
+    }
+}
+
+/// The figures' row of the black level taken off.
+pub(super) fn black_level_row(d: &lambertian::BlackLevelDecision) -> Figure {
+    Figure::new("black level", d.summary())
+}
+
+/// The spatial stage after [`normals::pixelwise`] gave `out` with `input`, as a timed stage.
+fn spatial_of(
+    st: &mut Stages,
+    job: &Job,
+    opts: &Options,
+    input: &normals::Input,
+    out: normals::Output,
+) -> Result<Estimate> {
+    let (stack, mask) = (&job.target, &job.mask);
     let n_opts = normals::Options {
         spatial: opts.spatial.clone(),
     };
@@ -134,6 +184,7 @@ fn normals_of(
         confidence: out.confidence,
         depth: None,
         spatial,
+        rows: Vec::new(),
     })
 }
 
@@ -229,6 +280,7 @@ fn nik(
         confidence: None,
         depth: Some(best.depth),
         spatial: None,
+        rows: Vec::new(),
     };
     Ok((ir, est))
 }

@@ -92,7 +92,17 @@ impl NoiseModel {
         if (stack.width, stack.height) != (mask.width, mask.height) {
             return NoiseModel::constant(0.0);
         }
-        let mut sampler = NoiseSampler::new(mask, stack.k);
+        Self::estimate_above(stack, mask, 0.0)
+    }
+
+    /// [`Self::estimate`] of the samples less a camera's black level `level` (image
+    /// units; [`NoiseSampler::above`]): the model of the stack with the level taken off,
+    /// without a copy of it.
+    pub fn estimate_above(stack: &ImageStack, mask: &Mask, level: f32) -> NoiseModel {
+        if (stack.width, stack.height) != (mask.width, mask.height) {
+            return NoiseModel::constant(0.0);
+        }
+        let mut sampler = NoiseSampler::new(mask, stack.k).above(level);
         sampler.feed(stack, 0);
         sampler.finish()
     }
@@ -126,6 +136,8 @@ pub struct NoiseSampler {
     /// The last rows fed (pixel-major), up to two, and the index of the first.
     tail: (Vec<f32>, usize),
     samples: Vec<(f32, f32)>,
+    /// A black level taken off every sample's intensity ([`NoiseSampler::above`]).
+    offset: f32,
     /// The quantisation step and the censoring bounds, fed the same bands.
     levels: Levels,
 }
@@ -154,7 +166,17 @@ impl NoiseSampler {
             tail: (Vec::new(), 0),
             samples: Vec::with_capacity((inside * k / stride).min(MAX_SAMPLES) + 1),
             levels: Levels::new(mask, k),
+            offset: 0.0,
         }
+    }
+
+    /// The sampler of the samples less a camera's black level `level` (image units), as
+    /// a Lambertian solve takes it off: the noise's level dependence σ²(I) is then on
+    /// the intensity the solve fits. The residuals (Immerkær's mask sums to 0) and the
+    /// quantisation step do not change with an offset; the intensities binned do.
+    pub fn above(mut self, level: f32) -> Self {
+        self.offset = level;
+        self
     }
 
     /// Take the samples of the rows `row0..row0 + band.height` of the images (`band`
@@ -197,7 +219,7 @@ impl NoiseSampler {
                         }
                     }
                     if res.is_finite() && mean.is_finite() {
-                        self.samples.push((mean / 9.0, res.abs()));
+                        self.samples.push((mean / 9.0 - self.offset, res.abs()));
                     }
                 }
             }
@@ -327,6 +349,26 @@ mod tests {
             }
             assert_eq!(sampler.finish(), whole, "bands of {rows} rows");
         }
+    }
+
+    #[test]
+    fn a_black_level_taken_off_is_the_model_of_the_shifted_stack() {
+        // what `normals --lambertian` measured on a copy of the stack less the level
+        let (s, m) = noisy_ramp(0.01, 0.0004);
+        let level = 0.03;
+        let mut shifted = s.clone();
+        shifted.data.iter_mut().for_each(|v| *v -= level);
+        let copy = NoiseModel::estimate(&shifted, &m);
+        let above = NoiseModel::estimate_above(&s, &m, level);
+        // to rounding: the offset comes off the 3×3 mean here, off each sample there
+        let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(b.abs());
+        assert!(
+            close(copy.read, above.read) && close(copy.gain, above.gain),
+            "{copy:?} {above:?}"
+        );
+        // and the shift matters: read² + g·I is fitted at intensities lower by the level
+        let plain = NoiseModel::estimate(&s, &m);
+        assert!(above.read > plain.read, "{above:?} {plain:?}");
     }
 
     #[test]

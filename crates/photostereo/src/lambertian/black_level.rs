@@ -1,0 +1,281 @@
+//! The camera's black level: measured from the images by variable projection
+//! ([`estimate_black_level`], or band by band with [`BlackLevelSums`]), and the one rule
+//! that decides whether a measured level is taken off ([`BlackLevel::is_taken`]), shared
+//! by every Lambertian path (`photostereo normals` and `run`, the pipeline, Python).
+
+use super::{check_inputs, check_lights, dot, fit_all, least_squares, Options};
+use crate::error::{Error, Result};
+use crate::image::{ImageStack, Lights, Mask};
+
+/// Largest black level taken off, as a fraction of full scale: cameras' are a few
+/// percent; a larger offset is light of the scene (ambient light, a lit background), not
+/// the sensor's, and taking it off would darken real shading.
+pub const MAX_BLACK_LEVEL: f32 = 0.25;
+
+/// The camera's black level estimated from the images ([`estimate_black_level`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BlackLevel {
+    /// The level (image units) found above the [`Options::black_level`] already taken
+    /// off.
+    pub value: f32,
+    /// Its standard error (image units), from the fits' residuals.
+    pub standard_error: f32,
+    /// Pixels that carried it (fits on at least four samples).
+    pub pixels: usize,
+}
+
+impl BlackLevel {
+    /// Whether the level is positive and at least [`BlackLevel::SIGNIFICANCE`] standard
+    /// errors from 0.
+    pub fn is_significant(&self) -> bool {
+        self.value > 0.0 && self.value >= Self::SIGNIFICANCE * self.standard_error
+    }
+
+    /// Standard errors a level must stand above 0 to be taken.
+    pub const SIGNIFICANCE: f32 = 5.0;
+
+    /// Whether the level is taken off: significant ([`BlackLevel::is_significant`]) and
+    /// at most [`MAX_BLACK_LEVEL`] of `full_scale` (the images' full scale in the units
+    /// the level was measured in: 1 for images as read, the image scale after one).
+    pub fn is_taken(&self, full_scale: f32) -> bool {
+        self.is_significant() && self.value <= MAX_BLACK_LEVEL * full_scale
+    }
+}
+
+/// What to do about the camera's black level before a Lambertian solve.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum BlackLevelChoice {
+    /// Measure it ([`estimate_black_level`]) and take it off when
+    /// [`BlackLevel::is_taken`]: a clean capture without an offset is left as it is.
+    #[default]
+    Auto,
+    /// Take nothing off (beyond [`Options::black_level`]).
+    None,
+    /// Take off this level, a fraction of full scale in [0, [`MAX_BLACK_LEVEL`]).
+    Given(f32),
+}
+
+impl BlackLevelChoice {
+    /// Errors: [`Error::InvalidInput`] for a given level outside [0,
+    /// [`MAX_BLACK_LEVEL`]) (or not finite).
+    pub fn check(&self) -> Result<()> {
+        match *self {
+            BlackLevelChoice::Given(v) if !(0.0..MAX_BLACK_LEVEL).contains(&v) => {
+                Err(Error::invalid(
+                    format!("black level {v}"),
+                    format!(
+                        "give a level in [0, {MAX_BLACK_LEVEL}) as a fraction of full scale \
+                         (e.g. 0.03), or let it be measured"
+                    ),
+                ))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// The black level a [`BlackLevelChoice`] came to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BlackLevelDecision {
+    /// The level to set as [`Options::black_level`] (image units).
+    pub level: f32,
+    /// What was measured ([`BlackLevelChoice::Auto`] only).
+    pub measured: Option<BlackLevel>,
+    /// The images' full scale in image units (the unit of "fraction of full scale").
+    pub full_scale: f32,
+}
+
+impl BlackLevelDecision {
+    /// The decision for a `choice` that needs no measurement (`None` for
+    /// [`BlackLevelChoice::Auto`]): `base` is the [`Options::black_level`] already set.
+    pub fn without_measuring(choice: BlackLevelChoice, base: f32, full_scale: f32) -> Option<Self> {
+        let level = match choice {
+            BlackLevelChoice::Auto => return None,
+            BlackLevelChoice::None => base,
+            BlackLevelChoice::Given(v) => v * full_scale,
+        };
+        Some(BlackLevelDecision {
+            level,
+            measured: None,
+            full_scale,
+        })
+    }
+
+    /// The decision of [`BlackLevelChoice::Auto`] on the level `measured` above `base`
+    /// (the [`Options::black_level`] it was measured with): taken off when
+    /// [`BlackLevel::is_taken`].
+    pub fn from_measured(measured: BlackLevel, base: f32, full_scale: f32) -> Self {
+        let taken = measured.is_taken(full_scale);
+        BlackLevelDecision {
+            level: if taken { base + measured.value } else { base },
+            measured: Some(measured),
+            full_scale,
+        }
+    }
+
+    /// The line that says what was found, e.g. "black level: 0.0313 of full scale
+    /// (standard error 1.4e-4) measured from the images; taken off".
+    pub fn describe(&self) -> String {
+        format!("black level: {}", self.summary())
+    }
+
+    /// [`Self::describe`] without its "black level: " (a report's row).
+    pub fn summary(&self) -> String {
+        let fs = self.full_scale;
+        match self.measured {
+            Some(b) => format!(
+                "{:.4} of full scale (standard error {:.1e}) measured from the images; {}",
+                b.value / fs,
+                b.standard_error / fs,
+                if b.is_taken(fs) {
+                    "taken off"
+                } else {
+                    "none taken off"
+                }
+            ),
+            None if self.level > 0.0 => {
+                format!("{:.4} of full scale, given; taken off", self.level / fs)
+            }
+            None => "none taken off (not measured)".to_string(),
+        }
+    }
+}
+
+/// The [`Options::black_level`] to solve with under `choice`, for a stack held whole:
+/// [`estimate_black_level`] for [`BlackLevelChoice::Auto`] (on the robust fits,
+/// [`Options::for_black_level`]), then [`BlackLevelDecision::from_measured`].
+/// `full_scale`: the images' full scale in the stack's units (1 for images as read).
+///
+/// Errors: [`BlackLevelChoice::check`]'s, and [`estimate_black_level`]'s.
+pub fn decide_black_level(
+    choice: BlackLevelChoice,
+    (stack, mask, lights): (&ImageStack, &Mask, &Lights),
+    opts: &Options,
+    full_scale: f32,
+) -> Result<BlackLevelDecision> {
+    choice.check()?;
+    let base = opts.black_level;
+    if let Some(d) = BlackLevelDecision::without_measuring(choice, base, full_scale) {
+        return Ok(d);
+    }
+    let measured = estimate_black_level(stack, mask, lights, &opts.for_black_level())?;
+    Ok(BlackLevelDecision::from_measured(
+        measured, base, full_scale,
+    ))
+}
+
+/// Estimate a black level β common to all images (a camera's dark offset: every sample
+/// reads β + ρ e max(0, n·l)) from the robust fits of [`super::solve`]. With the samples
+/// of pixel p that its fit used, Iₚ = β·1 + Lₚ bₚ; projecting out bₚ (variable
+/// projection, P⊥ = I − Lₚ(LₚᵀLₚ)⁻¹Lₚᵀ, u = P⊥1) leaves β = Σₚ⟨Iₚ, uₚ⟩ / Σₚ⟨1, uₚ⟩, with
+/// variance σ²/Σₚ⟨1, uₚ⟩ (σ² the pooled residual variance). Pixels need four samples.
+/// When the lights lie on a cone about one axis (a ring at one elevation), 1 is in the
+/// span of the lights and β cannot be told from the normals' tilt: the standard error is
+/// then infinite. The sums are [`BlackLevelSums`]'s, over the whole stack at once.
+///
+/// Errors: as [`super::solve`].
+pub fn estimate_black_level(
+    stack: &ImageStack,
+    mask: &Mask,
+    lights: &Lights,
+    opts: &Options,
+) -> Result<BlackLevel> {
+    check_inputs(stack, mask, lights, opts)?;
+    let mut sums = BlackLevelSums::new(lights, opts)?;
+    sums.add(stack, mask)?;
+    Ok(sums.finish())
+}
+
+/// The sums of [`estimate_black_level`] accumulated over row bands of a capture too large
+/// to hold whole: β is a ratio of sums over pixels, and each pixel's terms depend on its
+/// own samples only, so bands fed in order (top to bottom) give the estimate of the
+/// whole stack bit for bit (the pixels are added in the same order).
+#[derive(Clone, Debug)]
+pub struct BlackLevelSums {
+    eff: Vec<[f64; 3]>,
+    opts: Options,
+    /// [Σ I·u, Σ u, residual sum of squares, degrees of freedom].
+    sum: [f64; 4],
+    pixels: usize,
+}
+
+impl BlackLevelSums {
+    /// Empty sums for images under `lights`, fitted with `opts` (its
+    /// [`Options::black_level`] already taken off each sample).
+    ///
+    /// Errors: as [`super::solve`] for the lights and `min_lights`.
+    pub fn new(lights: &Lights, opts: &Options) -> Result<Self> {
+        let eff = check_lights(lights.directions.len(), lights, opts)?;
+        Ok(BlackLevelSums {
+            eff,
+            opts: opts.clone(),
+            sum: [0.0; 4],
+            pixels: 0,
+        })
+    }
+
+    /// Add the pixels of `band` inside `band_mask` (the mask's rows of the band; it may
+    /// hold no pixel).
+    ///
+    /// Errors: [`Error::LightCount`] for a band of another K than the lights;
+    /// [`Error::SizeMismatch`] for a mask of another size than the band.
+    pub fn add(&mut self, band: &ImageStack, band_mask: &Mask) -> Result<()> {
+        if band.k != self.eff.len() {
+            return Err(Error::LightCount {
+                what: "light directions".into(),
+                expected: band.k,
+                found: self.eff.len(),
+                fix: "give one light per image, in the order of the images".into(),
+            });
+        }
+        band_mask.check_size(band.width, band.height, "mask")?;
+        let fits = fit_all(band, band_mask, &self.eff, &self.opts, true);
+        for f in fits.iter().filter(|f| f.black[1] > 0.0) {
+            (self.sum.iter_mut().zip(f.black)).for_each(|(a, b)| *a += b);
+            self.pixels += 1;
+        }
+        Ok(())
+    }
+
+    /// The estimate of the pixels added so far.
+    pub fn finish(&self) -> BlackLevel {
+        let [num, den, ss, dof] = self.sum;
+        // a sum of u's under 1e-6 per pixel: 1 is (nearly) in the lights' span
+        let identified = den > 1e-6 * self.pixels as f64;
+        let value = if identified { num / den } else { 0.0 };
+        let variance = if dof > 0.0 { ss / dof } else { f64::INFINITY };
+        let se = if identified {
+            (variance / den).sqrt()
+        } else {
+            f64::INFINITY
+        };
+        BlackLevel {
+            value: value as f32,
+            standard_error: se as f32,
+            pixels: self.pixels,
+        }
+    }
+}
+
+/// A pixel's terms of [`estimate_black_level`] over the samples `sel` with residual sum
+/// of squares `ss`: [Σ I·u, Σ u, ss, dof] (u = P⊥1; zeros with fewer than 4 samples).
+pub(super) fn black_terms(
+    eff: &[[f64; 3]],
+    sel: &[usize],
+    value: impl Fn(usize) -> f64,
+    ss: f64,
+) -> [f64; 4] {
+    if sel.len() < 4 {
+        return [0.0; 4];
+    }
+    let Some(c) = least_squares(eff, sel, |_| 1.0) else {
+        return [0.0; 4];
+    };
+    let (mut num, mut den) = (0.0, 0.0);
+    for &i in sel {
+        let u = 1.0 - dot(eff[i], c);
+        num += value(i) * u;
+        den += u;
+    }
+    [num, den, ss, (sel.len() - 3) as f64]
+}
