@@ -9,6 +9,7 @@ use photostereo::progress::NoProgress;
 use photostereo::{integrate as integ, interreflect as ir, lambertian as lamb, lightcal};
 use photostereo::{lut, normals, pipeline, sphere};
 use pyo3::prelude::*;
+use pyo3::types::PyBool;
 
 use crate::convert::{self, value_error};
 use crate::table::Table;
@@ -157,12 +158,14 @@ fn warning(w: photostereo::Warning) -> (String, String) {
     (code, w.message)
 }
 
-/// lambertian(images, lights, mask=None, robust=True, spatial=True) -> Result
+/// lambertian(images, lights, mask=None, robust=True, spatial=True, black_level="auto")
+/// -> Result
 ///
 /// [`photostereo::normals::solve`] with Lambertian least squares, as `photostereo
-/// normals --lambertian` (`spatial=False`: `--no-spatial`).
+/// normals --lambertian` (`spatial=False`: `--no-spatial`; `black_level`: as
+/// `--black-level`, [`BlackLevelArg`]).
 #[pyfunction]
-#[pyo3(signature = (images, lights, mask=None, robust=true, spatial=true))]
+#[pyo3(signature = (images, lights, mask=None, robust=true, spatial=true, black_level=BlackLevelArg(lamb::BlackLevelChoice::Auto)))]
 pub fn lambertian(
     py: Python<'_>,
     images: PyReadonlyArray3<'_, f32>,
@@ -170,11 +173,12 @@ pub fn lambertian(
     mask: Option<PyReadonlyArray2<'_, bool>>,
     robust: bool,
     spatial: bool,
+    black_level: BlackLevelArg,
 ) -> PyResult<LookupResult> {
     let stack = convert::stack_from(&images, Vec::new())?;
     let lights = convert::lights_from(&lights)?;
     let mask = mask_or_full(mask, &stack);
-    let lo = if robust {
+    let mut lo = if robust {
         lamb::Options::default()
     } else {
         lamb::Options::plain()
@@ -183,10 +187,54 @@ pub fn lambertian(
         spatial: spatial.then(Default::default),
     };
     let out = crate::compute(py, move || {
+        // the images as given are the full scale's unit (levels are fractions of it)
+        let data = (&stack, &mask, &lights);
+        lo.black_level = lamb::decide_black_level(black_level.0, data, &lo, 1.0)?.level;
         let input = normals::Input::Lambertian(&lights, &lo);
         normals::solve(&stack, &mask, &input, &opts, &NoProgress)
     })?;
     Ok(result(py, out))
+}
+
+/// The `black_level=` argument: "auto" (measured and taken off when clearly above 0),
+/// None or "none" (nothing taken off), or a level in [0, 0.25) as a fraction of full
+/// scale; anything else is a ValueError that says what is taken.
+pub struct BlackLevelArg(lamb::BlackLevelChoice);
+
+impl<'a, 'py> FromPyObject<'a, 'py> for BlackLevelArg {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        use lamb::BlackLevelChoice as C;
+        let choice = if obj.is_none() {
+            Some(C::None)
+        } else if let Ok(text) = obj.extract::<String>() {
+            match text.as_str() {
+                "auto" => Some(C::Auto),
+                "none" => Some(C::None),
+                _ => None,
+            }
+        } else {
+            // a bool is an int in Python: not a level
+            let number = obj
+                .extract::<f64>()
+                .ok()
+                .filter(|_| !obj.is_instance_of::<PyBool>());
+            number
+                .map(|v| C::Given(v as f32))
+                .filter(|c| c.check().is_ok())
+        };
+        choice.map(BlackLevelArg).ok_or_else(|| {
+            let repr = obj
+                .repr()
+                .map_or_else(|_| "?".to_string(), |r| r.to_string());
+            value_error(format!(
+                "black_level={repr}: give \"auto\", None, or a level in [0, {}) as a fraction \
+                 of full scale (e.g. 0.03)",
+                lamb::MAX_BLACK_LEVEL
+            ))
+        })
+    }
 }
 
 /// lights_from_sphere(images, mask=None, kind="chrome", circle=None) -> (K, 3) lights

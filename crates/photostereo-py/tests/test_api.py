@@ -169,6 +169,29 @@ def test_lambertian_accuracy_and_cli(data, cli, tmp_path):
         assert (res.own_share is not None) == spatial
 
 
+def test_lambertian_black_level(cli, tmp_path):
+    # a camera's 3% dark offset on 8-bit images (as tests/black_level_cli.rs)
+    d = tmp_path / "black"
+    cli("synth", "--material", "lambertian", "--albedo-texture", "--bits", "8",
+        "--black-level", "0.03", "--size", "128", "-o", d)
+    cli("normals", d, "--lambertian", "-o", tmp_path / "cli")
+    ds = ps.load_dataset(d)
+    gt = np.load(d / "normal_gt.npy")
+    errors = {}
+    for level in ["auto", 0.0314, None]:
+        res = ps.lambertian(ds, black_level=level)
+        errors[level] = angular_error_deg(res.normals, gt, ds.mask).mean()
+    print(f"black level 3%, 8-bit: mean angular error {errors} deg")
+    # measured: auto 0.097, 0.0314 0.104, None 2.192 deg (as the CLI)
+    assert errors["auto"] < 0.2 and errors[0.0314] < 0.2 and errors[None] > 1.0, errors
+    auto = ps.lambertian(ds)  # "auto" is the default, as the CLI's
+    want = np.load(tmp_path / "cli" / "normals.npy")
+    assert np.nanmax(np.abs(auto.normals - want)) <= 1e-4
+    for bad in ["bogus", 0.5, -0.01, True, [0.03]]:
+        with pytest.raises(ValueError, match="black_level=.*auto.*None"):
+            ps.lambertian(ds, black_level=bad)
+
+
 def test_lights_from_matte_sphere(data):
     ds = ps.load_dataset(data["matte_sphere"])
     lights = ps.lights_from_sphere(ds, kind="matte")

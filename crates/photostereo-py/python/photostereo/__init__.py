@@ -213,6 +213,7 @@ def lambertian(
     *,
     robust: bool = True,
     spatial: bool = True,
+    black_level: Union[str, float, None] = "auto",
 ) -> Result:
     """Lambertian photometric stereo with known lights (``photostereo normals --lambertian``).
 
@@ -221,6 +222,12 @@ def lambertian(
     mask: (H, W) bool (default: the dataset's, else all pixels).
     robust: drop shadowed and highlight samples per pixel (False: plain least squares).
     spatial: the spatial stage after the solve, as the CLI (False: ``--no-spatial``).
+    black_level: the camera's black level taken off every sample, as ``--black-level``:
+        "auto" (measured from the images and taken off when clearly above 0), None
+        (nothing taken off) or a level in [0, 0.25) as a fraction of full scale (the
+        images' unit: 1 for images in [0, 1]). A dark offset reads as light that no
+        normal explains (3% on 8-bit images: about 2 degrees of error). Anything else
+        raises ValueError.
 
     Returns a :class:`Result` with ``.normals`` (H, W, 3), ``.albedo`` (H, W),
     ``.residual``, ``.normals_sigma`` and (spatial stage) ``.own_share``.
@@ -232,7 +239,12 @@ def lambertian(
         raise ValueError("no light directions: pass lights=(K, 3) or a dataset with light_directions.txt")
     lights = _array(lights, "lights", "(K, 3)", 2, 3)
     return _native.lambertian(
-        ds.images, lights, mask=_mask(mask, ds.mask), robust=robust, spatial=spatial
+        ds.images,
+        lights,
+        mask=_mask(mask, ds.mask),
+        robust=robust,
+        spatial=spatial,
+        black_level=black_level,
     )
 
 

@@ -150,9 +150,11 @@ def lambertian(
     mask: Optional[Bool] = None,
     robust: bool = True,
     spatial: bool = True,
+    black_level: Union[str, float, None] = "auto",
 ) -> Result:
     """Lambertian photometric stereo with known (K, 3) lights, then the spatial stage
-    unless spatial=False."""
+    unless spatial=False; black_level: "auto" (measured, taken off when clearly above
+    0), None (nothing) or a level in [0, 0.25) of full scale, as ``--black-level``."""
 
 def lights_from_sphere(
     images: F32,
