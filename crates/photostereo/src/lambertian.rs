@@ -31,9 +31,12 @@
 //! n·lᵢ)) reads as light that no normal explains: a 3% level costs an 8-bit Lambertian
 //! blob 0.05° → 2.2°. [`Options::black_level`] takes a known level off every sample;
 //! [`estimate_black_level`] measures it from the robust fits by variable projection
-//! (β is common to all pixels, each pixel's b is projected out). It cannot be measured
+//! (β is common to all pixels, each pixel's b is projected out; [`BlackLevelSums`] sums
+//! it over row bands of a capture too large to hold whole). It cannot be measured
 //! when the lights lie on one cone about an axis (a ring at one elevation): the offset
-//! is then a tilt of every normal towards that axis.
+//! is then a tilt of every normal towards that axis. Whether a measured level is taken
+//! off is one rule for every caller ([`BlackLevel::is_taken`]; [`BlackLevelChoice`] and
+//! [`decide_black_level`] for `auto`, `none` or a given level).
 //!
 //! R. J. Woodham, "Photometric method for determining surface orientation from
 //! multiple images", Optical Engineering 19(1), 1980.

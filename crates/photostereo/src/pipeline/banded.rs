@@ -2,7 +2,8 @@
 //! ([`crate::io::bands`]) within the memory budget ([`crate::plan`]), never held whole.
 //!
 //! The per-pixel stages run band by band and write into H×W maps: the lookup (one
-//! [`lut::Lookup`] prepared once, solved per band) or the Lambertian solve, the noise
+//! [`lut::Lookup`] prepared once, solved per band) or the Lambertian solve (after a pass
+//! that measures the camera's black level, [`lambertian::BlackLevelSums`]), the noise
 //! samples ([`NoiseSampler`], which takes the samples of the whole stack in the same
 //! order) and, for a lookup, the evidence of each pixel ([`spatial::info::from_table`]) in
 //! a second pass, once the noise is known. The spatial solve is global: it runs on the
