@@ -20,10 +20,13 @@
 //!    (the solution corrected by its last Gauss–Newton step, the one below the stopping
 //!    length that the refinement does not take: a better estimate of its minimum).
 //!    **No wrong fit is accepted:** that fit f is kept only with a certificate that no
-//!    table entry more than 4.5 px from it fits the target better. Each entry e at an
-//!    even grid point carries an *isolation radius* ρ(e), the projected distance to the
-//!    nearest entry more than 3 px away on the grid (exact: a tree search skipping the nearer);
-//!    with e₀ the even entry nearest to f, every such entry lies at least
+//!    table entry more than 4.5 px from it fits the target better. Each entry e carries
+//!    an *isolation radius* ρ(e), the projected distance to the nearest entry more than
+//!    3 px away on the grid (exact: a tree search skipping the nearer); with e₀ the entry
+//!    at the even grid point nearest to f (whose distance to the target the refinement
+//!    measures with its cell), or where that fails the entry nearest to f (which passes
+//!    where the tuples change much faster one way than the other, around highlights),
+//!    every such entry lies at least
 //!    ρ(e₀) − ‖q − e₀‖ from the pixel's projected query q, and since the projection is
 //!    orthogonal the projected distance d bounds an entry's cost from below (raw
 //!    matching: cost ≥ d²; normalised: cost ≥ ‖t‖²·min(1, d²/2)). Without the
@@ -66,7 +69,9 @@
 //!    next to a pixel with dropped lights, Gauss–Newton starts from its solution with
 //!    the same lights dropped, the dropped set is re-derived at the new match and the
 //!    fit repeated until the set is stable (up to 3 fits); kept when it passes the
-//!    coherence test, else the full procedure runs. The number of dropped lights is
+//!    coherence test and the global check on the lights kept (the tree's best
+//!    candidate fits no better, and when it lies in another basin its refinement fits
+//!    no better either, as in step 1), else the full procedure runs. The number of dropped lights is
 //!    returned.
 //! 5. **Confidence** = L / (1 + (ρ/ρ₀)²), ρ = RMS residual / RMS target over the lights
 //!    used, ρ₀ = `residual_scale`; L = 1 when at least `min_lit_lights` lights are above

@@ -41,7 +41,14 @@ const STOP2: f64 = 1e-4;
 /// rows and columns.
 #[inline(always)]
 pub(crate) fn even(g: f64) -> usize {
-    2 * (0.5 * g).round().max(0.0) as usize
+    2 * nearest(0.5 * g)
+}
+
+/// The grid coordinate nearest to g (≥ 0; halves round up, as `f64::round` does for
+/// g ≥ 0): a truncating cast, where `round` is a libm call on the x86-64 baseline.
+#[inline(always)]
+pub(crate) fn nearest(g: f64) -> usize {
+    (g.max(0.0) + 0.5) as usize
 }
 
 /// Round `k` up to a multiple of [`LANES`].

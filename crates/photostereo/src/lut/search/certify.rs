@@ -3,7 +3,7 @@
 //! fails.
 
 use super::{Fit, Index, Solver, Work};
-use crate::lut::fit::fused::even;
+use crate::lut::fit::fused::{even, nearest};
 use std::sync::atomic::Ordering;
 
 /// Grid distance (pixels) from an entry beyond which other entries count as lying
@@ -36,9 +36,9 @@ pub(super) const UNSET: u32 = u32::MAX;
 const BOUND_LEAVES: usize = 48;
 
 impl Solver<'_> {
-    /// The isolation radius of entry `e` at an even grid point (even row and column):
-    /// the projected distance to the nearest entry more than [`ISOLATION_BASIN`] px away
-    /// on the grid (an exact nearest-neighbour search that skips the entries within it).
+    /// The isolation radius of entry `e`: the projected distance to the nearest entry
+    /// more than [`ISOLATION_BASIN`] px away on the grid (an exact nearest-neighbour
+    /// search that skips the entries within it).
     /// Computed on first use and cached: only the entries that certify some pixel's fit
     /// are ever searched (racing workers store the same value).
     fn isolation_of(&self, index: &Index, e: u32) -> f32 {
@@ -70,8 +70,8 @@ impl Solver<'_> {
         rho
     }
 
-    /// Compute the isolation radius of every entry at an even grid point (even row and
-    /// column: the anchors of [`Solver::certified`]), in parallel.
+    /// Compute the isolation radius of every entry (the anchors of
+    /// [`Solver::certified`]), in parallel.
     pub(super) fn fill_isolation(&self) {
         use rayon::prelude::*;
         let Some(index) = self.index else {
@@ -81,10 +81,6 @@ impl Solver<'_> {
         (0..pixels.len() as u32)
             .into_par_iter()
             .with_min_len(256)
-            .filter(|&e| {
-                let (gx, gy) = self.entry_grid(e);
-                (gx as i64) % 2 == 0 && (gy as i64) % 2 == 0
-            })
             .for_each(|e| {
                 self.isolation_of(index, e);
             });
@@ -92,19 +88,36 @@ impl Solver<'_> {
 
     /// The certificate of the coherence shortcut (module docs, step 1): no table entry
     /// more than [`ISOLATION_BASIN`] + 1.5 px from `f` fits the target better. With e₀
-    /// the entry at the even grid point (even row and column) nearest to `f` and ρ(e₀) its isolation radius (the
+    /// an anchor entry at a grid point next to `f` and ρ(e₀) its isolation radius (the
     /// projected distance to the nearest entry more than [`ISOLATION_BASIN`] px away on
     /// the grid), every such entry lies at least ρ(e₀) − ‖q − e₀‖ from the query q in
     /// the projected space, and the projected distance d bounds the cost from below
-    /// (raw matching: cost ≥ d²; normalised: cost ≥ ‖t‖²·min(1, d²/2)).
+    /// (raw matching: cost ≥ d²; normalised: cost ≥ ‖t‖²·min(1, d²/2)). The anchor is
+    /// first the even grid point (even row and column) nearest to `f`, whose distance
+    /// the refinement measured with its cell; then, where the table's tuples change
+    /// much faster one way than the other (around highlights: ρ small for the even
+    /// point's offset of up to √2 px), the grid point nearest to `f` (at most 0.71 px).
     pub(super) fn certified(&self, index: &Index, f: &Fit, wk: &mut Work) -> bool {
-        let (r0, c0) = (even(f.gy), even(f.gx));
-        let e0 = self.entry_at(r0, c0);
-        if e0 == u32::MAX {
-            return false;
-        }
         // cheap test first: with ρ = ∞ the bound is the largest it can be
         if self.lower_bound(wk.norm, f32::INFINITY) < f.cost {
+            return false;
+        }
+        let even_anchor = (even(f.gy), even(f.gx));
+        let near = (nearest(f.gy), nearest(f.gx));
+        self.certified_at(index, f, even_anchor, wk)
+            || (near != even_anchor && self.certified_at(index, f, near, wk))
+    }
+
+    /// The certificate of `f` with the entry at window pixel (r0, c0) as anchor.
+    fn certified_at(
+        &self,
+        index: &Index,
+        f: &Fit,
+        (r0, c0): (usize, usize),
+        wk: &mut Work,
+    ) -> bool {
+        let e0 = self.entry_at(r0, c0);
+        if e0 == u32::MAX {
             return false;
         }
         let rho = self.isolation_of(index, e0);

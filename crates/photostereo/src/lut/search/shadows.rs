@@ -98,8 +98,17 @@ impl Solver<'_> {
                 // the global check, on the lights kept (module docs, step 4)
                 let index = self.index.as_ref()?;
                 let best = self.tree_match(index, Some(&fit), true, wk);
-                let kept = fit.cost <= best.cost && same_basin(&fit, &best);
-                return kept.then_some((fit, shadowed));
+                if fit.cost > best.cost {
+                    return None;
+                }
+                if same_basin(&fit, &best) {
+                    return Some((fit, shadowed));
+                }
+                // a basin elsewhere whose best entry fits worse than `fit` is refined,
+                // as in step 1: `fit` is kept when it still fits at least as well
+                let other = self.refine(true, best, wk);
+                wk.fresh = false;
+                return (other.cost >= fit.cost).then_some((fit, shadowed));
             }
             fit.cost = f32::INFINITY;
         }
