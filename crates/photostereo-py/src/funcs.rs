@@ -423,11 +423,12 @@ pub fn interreflect<'py>(
 
 /// run(target, out, sphere=None, table=None, lambertian=False, lights=None, chrome=None,
 /// mask=None, image_scale=None, interreflections=False, method=None, spatial=True,
-/// block=None, response=None, memory=None) -> dict: what run.json holds (response:
-/// "linear", "srgb", "gamma=G"; None = sRGB for JPEG files, linear otherwise; memory: the
-/// run's budget, e.g. "2G" or a number of bytes; None = half of the machine's memory)
+/// block=None, response=None, memory=None, black_level="auto") -> dict: what run.json
+/// holds (response: "linear", "srgb", "gamma=G"; None = sRGB for JPEG files, linear
+/// otherwise; memory: the run's budget, e.g. "2G" or a number of bytes; None = half of the
+/// machine's memory; black_level: as `lambertian`'s, `run --black-level`)
 #[pyfunction]
-#[pyo3(signature = (target, out, sphere=None, table=None, lambertian=false, lights=None, chrome=None, mask=None, image_scale=None, interreflections=false, method=None, spatial=true, block=None, response=None, memory=None))]
+#[pyo3(signature = (target, out, sphere=None, table=None, lambertian=false, lights=None, chrome=None, mask=None, image_scale=None, interreflections=false, method=None, spatial=true, block=None, response=None, memory=None, black_level=BlackLevelArg(lamb::BlackLevelChoice::Auto)))]
 #[allow(clippy::too_many_arguments)]
 pub fn run<'py>(
     py: Python<'py>,
@@ -446,6 +447,7 @@ pub fn run<'py>(
     block: Option<usize>,
     response: Option<&str>,
     memory: Option<&str>,
+    black_level: BlackLevelArg,
 ) -> PyResult<Bound<'py, PyAny>> {
     let inputs = pipeline::Inputs {
         target,
@@ -467,6 +469,7 @@ pub fn run<'py>(
             Some(n) => Some(integ::Method::from_name(n).map_err(crate::to_py)?),
         },
         interreflections,
+        black_level: black_level.0,
         ..Default::default()
     };
     let mut opts = pipeline::Options {

@@ -192,6 +192,24 @@ def test_lambertian_black_level(cli, tmp_path):
             ps.lambertian(ds, black_level=bad)
 
 
+def test_run_black_level(cli, data, tmp_path):
+    # run(..., black_level=) as `run --lambertian --black-level`, scored against the truth
+    d = tmp_path / "black"
+    cli("synth", "--material", "lambertian", "--albedo-texture", "--bits", "8",
+        "--black-level", "0.03", "--size", "128", "-o", d)
+    errors = {}
+    for level in ["auto", None]:
+        r = ps.run(d, tmp_path / f"o{level}", lambertian=True, black_level=level)
+        errors[level] = r["angular_error_deg"]["mean"]
+    print(f"run, black level 3%, 8-bit: mean angular error {errors} deg")
+    # as the CLI's test (tests/black_level_cli.rs): auto 0.097, none 2.192 deg
+    assert errors["auto"] < 0.2 and errors[None] > 1.0, errors
+    # a level is for Lambertian photometric stereo: refused with a table, before reading
+    with pytest.raises(ValueError, match="black level"):
+        ps.run(data["blob"], tmp_path / "lut", sphere=data["sphere"], black_level=0.03)
+    assert not (tmp_path / "lut" / "normals.npy").exists()
+
+
 def test_lights_from_matte_sphere(data):
     ds = ps.load_dataset(data["matte_sphere"])
     lights = ps.lights_from_sphere(ds, kind="matte")

@@ -413,6 +413,7 @@ def run(
     spatial: bool = True,
     block: Optional[int] = None,
     memory: Union[int, str, None] = None,
+    black_level: Union[str, float, None] = "auto",
 ) -> dict:
     """The whole job on a dataset directory, as ``photostereo run`` (same outputs).
 
@@ -431,6 +432,9 @@ def run(
     memory: the run's memory budget, bytes or a size such as "2G" (``run --memory``):
         the images are read by row bands sized to it; a capture that cannot fit stops
         before any pixel is read. Default: half of the machine's memory.
+    black_level: the camera's black level taken off every sample before Lambertian
+        photometric stereo, as ``run --black-level``: "auto" (default; measured, taken
+        off when clearly above 0), None (nothing) or a level in [0, 0.25) of full scale.
 
     Writes normals.npy/png, albedo, confidence, depth.npy/png, mesh.ply, run.json,
     report.html into ``out``; returns what run.json holds (a dict).
@@ -458,4 +462,5 @@ def run(
         spatial=spatial,
         block=block,
         memory=None if memory is None else str(memory),
+        black_level=black_level,
     )

@@ -204,5 +204,6 @@ def run(
     block: Optional[int] = None,
     response: Optional[str] = None,
     memory: Optional[str] = None,
+    black_level: Union[str, float, None] = "auto",
 ) -> dict:
     """The whole ``photostereo run``; returns what run.json holds (a dict)."""

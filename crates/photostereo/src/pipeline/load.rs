@@ -10,7 +10,7 @@ use crate::image::{Lights, Mask};
 use crate::progress::Progress;
 use crate::sphere::checks::MirrorCheck;
 use crate::warning::{Warning, WarningCode};
-use crate::{io, lightcal, sphere};
+use crate::{io, lambertian, lightcal, sphere};
 
 /// The files of a run: the target dataset and where its normals come from. Exactly one
 /// of `sphere`, `calibration` and `lambertian` says how to get the normals.
@@ -315,6 +315,17 @@ pub(super) fn check(inputs: &Inputs, opts: &Options) -> Result<()> {
             Setting::Lambertian,
             "interreflection removal and the image scale",
             "they are for Lambertian photometric stereo, which was not asked for",
+        ));
+    }
+    // a level given or refused is for the Lambertian solve; a table carries the sphere's
+    // own, and the interreflection iteration models the images without an offset
+    let explicit = opts.black_level != lambertian::BlackLevelChoice::Auto;
+    if explicit && (!inputs.lambertian || opts.interreflections) {
+        return Err(Error::setting(
+            Setting::Lambertian,
+            "a black level to take off (or none)",
+            "it is for Lambertian photometric stereo without interreflection removal: leave \
+             it at auto there (a lookup table carries the sphere's own black level)",
         ));
     }
     Ok(())
