@@ -341,31 +341,19 @@ fn lookup_pass(
     p: &dyn Progress,
 ) -> Result<Estimate> {
     let (w, h) = (mask.width, mask.height);
-    let (buf, step) = preview;
     let mut normals = NormalMap::filled(w, h, [0.0; 3]);
     let mut confidence = GrayImage::filled(w, h, 0.0);
     let mut albedo: Option<GrayImage> = None;
-    cap.pass(
-        "lookup",
-        p,
-        |_, _| true,
-        |band, r0| {
-            sampler.feed(band, r0);
-            decimate(buf, band, r0, step);
-            let bm = rows_of(mask, r0, band.height);
-            if bm.count() == 0 {
-                return Ok(());
-            }
-            let out = lookup.solve(band, &bm, &NoProgress)?;
-            put_rows(&mut normals, &out.normals, r0);
-            put_rows(&mut confidence, &out.confidence, r0);
-            if let Some(a) = &out.albedo {
-                let all = albedo.get_or_insert_with(|| GrayImage::filled(w, h, 0.0));
-                put_rows(all, a, r0);
-            }
-            Ok(())
-        },
-    )?;
+    solve_bands(cap, "lookup", mask, sampler, preview, p, |band, bm, r0| {
+        let out = lookup.solve(band, bm, &NoProgress)?;
+        put_rows(&mut normals, &out.normals, r0);
+        put_rows(&mut confidence, &out.confidence, r0);
+        if let Some(a) = &out.albedo {
+            let all = albedo.get_or_insert_with(|| GrayImage::filled(w, h, 0.0));
+            put_rows(all, a, r0);
+        }
+        Ok(())
+    })?;
     Ok(Estimate {
         normals,
         albedo,
@@ -611,24 +599,21 @@ fn lambertian_pass(
     lo: &lambertian::Options,
     mask: &Mask,
     sampler: &mut NoiseSampler,
-    (buf, step): (&mut Vec<f32>, usize),
+    preview: (&mut Vec<f32>, usize),
     p: &dyn Progress,
 ) -> Result<Estimate> {
     let (w, h) = (mask.width, mask.height);
     let mut normals = NormalMap::filled(w, h, [0.0; 3]);
     let mut albedo = GrayImage::filled(w, h, 0.0);
-    cap.pass(
+    solve_bands(
+        cap,
         "Lambertian",
+        mask,
+        sampler,
+        preview,
         p,
-        |_, _| true,
-        |band, r0| {
-            sampler.feed(band, r0);
-            decimate(buf, band, r0, step);
-            let bm = rows_of(mask, r0, band.height);
-            if bm.count() == 0 {
-                return Ok(());
-            }
-            let out = lambertian::solve(band, &bm, lights, lo)?;
+        |band, bm, r0| {
+            let out = lambertian::solve(band, bm, lights, lo)?;
             put_rows(&mut normals, &out.normals, r0);
             put_rows(&mut albedo, &out.albedo, r0);
             Ok(())
@@ -642,6 +627,34 @@ fn lambertian_pass(
         spatial: None,
         rows: Vec::new(),
     })
+}
+
+/// One pass over every band (`what` on `p`): each band feeds the noise `sampler` and the
+/// report's decimated `preview`; `solve` gets the bands that hold mask pixels, with the
+/// mask's rows of the band and the band's first row.
+fn solve_bands(
+    cap: &mut Capture,
+    what: &str,
+    mask: &Mask,
+    sampler: &mut NoiseSampler,
+    (buf, step): (&mut Vec<f32>, usize),
+    p: &dyn Progress,
+    mut solve: impl FnMut(&ImageStack, &Mask, usize) -> Result<()>,
+) -> Result<()> {
+    cap.pass(
+        what,
+        p,
+        |_, _| true,
+        |band, r0| {
+            sampler.feed(band, r0);
+            decimate(buf, band, r0, step);
+            let bm = rows_of(mask, r0, band.height);
+            if bm.count() == 0 {
+                return Ok(());
+            }
+            solve(band, &bm, r0)
+        },
+    )
 }
 
 /// The images' file names (as [`ImageStack::names`]), in light order: what a light file

@@ -89,9 +89,6 @@ impl NoiseModel {
     /// Estimate the model from the `mask` pixels of `stack` (see the module docs).
     /// Returns a zero model when fewer than 100 pixels have a full 3×3 neighbourhood.
     pub fn estimate(stack: &ImageStack, mask: &Mask) -> NoiseModel {
-        if (stack.width, stack.height) != (mask.width, mask.height) {
-            return NoiseModel::constant(0.0);
-        }
         Self::estimate_above(stack, mask, 0.0)
     }
 
