@@ -112,9 +112,11 @@
 //! through the tree; Gauss–Newton takes ≈ 1.6 evaluations per pixel (8 lanes with AVX,
 //! with fused multiply-adds where the processor has them, 4 with SSE2, chosen at run
 //! time; 57% of the warm fits take one). Everything that depends only on the tables
-//! (index, every isolation radius, rim model, coarse grid) is built once by
-//! [`Lookup::new`], as a KD-tree library builds its tree before the queries;
-//! [`solve`] builds it inside the call and computes only the isolation radii it needs.
+//! (index, the isolation radii of the even entries, rim model, coarse grid) is built once
+//! by [`Lookup::new`], as a KD-tree library builds its tree before the queries (the few
+//! other radii the certificate asks for are computed when first needed and kept for the
+//! next target); [`solve`] builds it inside the call and computes only the isolation
+//! radii it needs.
 //! Side by side with scikit-learn's `KDTree` (nearest entry only, its tree built
 //! beforehand; `benches/sklearn_lookup.py`, idle machine, 2026-12-02 09:01, 6 runs)
 //! the prepared lookup is 19–24× faster in wall time (median 21.6×; 20.5× in CPU time)
@@ -241,7 +243,8 @@ pub struct Lookup<'t> {
 impl<'t> Lookup<'t> {
     /// Prepare the lookup of targets against `tables` (one, or two for a mixture of
     /// materials; borrowed, `&[Table]`, or owned, `Vec<Table>`) with `opts`, including
-    /// every entry's isolation radius (in parallel).
+    /// the isolation radius of every entry at an even grid point (in parallel; the
+    /// others are computed when first needed and kept).
     ///
     /// Errors: no table or more than two; K < 3; two tables under different numbers
     /// of lights; options that do not fit the tables (as [`solve`]).

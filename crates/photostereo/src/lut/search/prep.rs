@@ -89,8 +89,9 @@ impl Prep {
         }
     }
 
-    /// Compute the isolation radius of every entry that can anchor a certificate (one
-    /// table, refined lookup; in parallel), so that no target pays for them.
+    /// Compute the isolation radius of every entry at an even grid point, the first
+    /// anchor of every certificate (one table, refined lookup; in parallel), so that no
+    /// target pays for them; the second anchors are computed when first needed.
     pub fn fill_isolation(&self, model: Model<'_>, opts: &Options) {
         if self.index.is_some() && opts.method == Method::Refined {
             Solver::with(model, opts, self).fill_isolation();
