@@ -62,6 +62,7 @@ pub mod progress;
 pub mod report;
 pub mod spatial;
 pub mod sphere;
+mod stats;
 pub mod synth;
 pub mod warning;
 

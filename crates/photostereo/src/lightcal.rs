@@ -30,6 +30,7 @@ use crate::error::{Error, Result};
 use crate::image::{normalize, ImageStack, Lights};
 use crate::sphere::fit::{accumulate, solve3};
 use crate::sphere::Circle;
+use crate::stats::median;
 
 /// Settings of [`from_matte_sphere`].
 #[derive(Clone, Debug)]
@@ -264,12 +265,6 @@ fn shadow_level(
         return None;
     }
     median(&mut dark).map(|m| m.max(0.0))
-}
-
-/// The median (the upper one of an even count) of `v`, reordered; `None` when empty.
-fn median(v: &mut [f32]) -> Option<f32> {
-    let mid = v.len() / 2;
-    (!v.is_empty()).then(|| *v.select_nth_unstable_by(mid, f32::total_cmp).1)
 }
 
 /// Depth into the attached shadow (fraction of the fit's peak) of the pixels whose

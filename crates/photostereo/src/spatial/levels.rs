@@ -13,6 +13,7 @@
 //! read band by band gets the bounds of the whole stack, bit for bit.
 
 use crate::image::{ImageStack, Mask};
+use crate::stats::median;
 
 /// At most this many mask pixels per image are kept for the quantisation step: enough
 /// to meet neighbouring levels of an 8-bit image many times over (on a 16-bit image the
@@ -122,11 +123,7 @@ impl Levels {
                     .min_by(f32::total_cmp)
             })
             .collect();
-        if steps.is_empty() {
-            return 0.0;
-        }
-        let mid = steps.len() / 2;
-        *steps.select_nth_unstable_by(mid, f32::total_cmp).1
+        median(&mut steps).unwrap_or(0.0)
     }
 
     /// The censoring bounds for quantisation step `step`: the floor of each image is its

@@ -17,6 +17,7 @@
 
 use super::{check_circle, detect, Circle, DetectOptions, Detection};
 use crate::image::{GrayImage, ImageStack, Mask};
+use crate::stats::median;
 
 /// A given circle's offset (centre or radius, pixels) from the one found in the images
 /// that counts as a misfit when it also exceeds 3 σ of the found circle.
@@ -283,11 +284,7 @@ fn inner_median(img: &GrayImage, c: &Circle) -> f32 {
             }
         }
     }
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mid = v.len() / 2;
-    *v.select_nth_unstable_by(mid, f32::total_cmp).1
+    median(&mut v).unwrap_or(0.0)
 }
 
 /// Median share of the disk above half of each image's peak inside the disk above which

@@ -43,6 +43,7 @@
 use super::contrast::gaussian_blur;
 use super::fit::fit_robust;
 use super::{edges, Circle, DetectOptions};
+use crate::stats::percentile;
 
 /// Percentile of a window's values taken as the background's level (the corners of a
 /// window around the sphere are about a fifth of it).
@@ -310,15 +311,6 @@ fn background_noise(values: &[f32], keep: &[bool]) -> Option<(f32, f32)> {
 pub(super) fn background_percentile(values: &[f32], keep: &[bool]) -> Option<f32> {
     let mut v: Vec<f32> = searched(values, keep).collect();
     percentile(&mut v, BACKGROUND_PERCENTILE)
-}
-
-/// The value at rank ⌊(n − 1)·`p`⌋ of the n values `v` (reordered); `None` when empty.
-fn percentile(v: &mut [f32], p: f64) -> Option<f32> {
-    if v.is_empty() {
-        return None;
-    }
-    let i = ((v.len() - 1) as f64 * p) as usize;
-    Some(*v.select_nth_unstable_by(i, f32::total_cmp).1)
 }
 
 /// The searched finite values.

@@ -4,6 +4,7 @@
 
 use crate::image::ImageStack;
 use crate::sphere::Circle;
+use crate::stats::median;
 
 /// The sphere images on the window around the circle, pixel-major, padded outside the
 /// sphere (see the module docs).
@@ -132,16 +133,9 @@ pub fn estimate_noise(window: &Window, circle: &Circle, rim: f64) -> (f32, f32) 
         return (0.0, 0.0);
     }
     let quantisation = quantisation_step(&values, k) / 12f32.sqrt();
-    let sigma = (1.4826 * median(&mut res) / 1.25f32.sqrt()).max(quantisation);
+    let sigma = (1.4826 * median(&mut res).unwrap_or(0.0) / 1.25f32.sqrt()).max(quantisation);
     let mut lit: Vec<f32> = values.into_iter().filter(|&v| v > 3.0 * sigma).collect();
-    (
-        sigma,
-        if lit.is_empty() {
-            0.0
-        } else {
-            median(&mut lit)
-        },
-    )
+    (sigma, median(&mut lit).unwrap_or(0.0))
 }
 
 /// Median over the `k` lights of `values` (pixel-major, K per pixel) of the smallest
@@ -159,16 +153,7 @@ fn quantisation_step(values: &[f32], k: usize) -> f32 {
             v.windows(2).map(|w| w[1] - w[0]).min_by(f32::total_cmp)
         })
         .collect();
-    if steps.is_empty() {
-        0.0
-    } else {
-        median(&mut steps)
-    }
-}
-
-fn median(v: &mut [f32]) -> f32 {
-    let mid = v.len() / 2;
-    *v.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
+    median(&mut steps).unwrap_or(0.0)
 }
 
 #[cfg(test)]
