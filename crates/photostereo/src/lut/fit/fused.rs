@@ -26,7 +26,7 @@
 //! Stopping rule: the iteration ends when the Gauss–Newton step is below 0.01 px (the
 //! step is then not taken: the position is within about that of the minimum).
 
-use super::generic::Fit;
+use super::generic::{Fit, NEIGHBOURS};
 use crate::lut::table::Table;
 use std::borrow::Cow;
 
@@ -45,10 +45,12 @@ pub(crate) fn even(g: f64) -> usize {
 }
 
 /// The grid coordinate nearest to g (≥ 0; halves round up, as `f64::round` does for
-/// g ≥ 0): a truncating cast, where `round` is a libm call on the x86-64 baseline.
+/// g ≥ 0): a truncating cast, where `round` is a libm call on the x86-64 baseline. The
+/// cast is to `u32` (grid coordinates are far below 2³²; larger values saturate): one
+/// conversion instruction, where a cast to `usize` handles values beyond 2⁶³ too.
 #[inline(always)]
 pub(crate) fn nearest(g: f64) -> usize {
-    (g.max(0.0) + 0.5) as usize
+    (g.max(0.0) + 0.5) as u32 as usize
 }
 
 /// Round `k` up to a multiple of [`LANES`].
@@ -106,6 +108,18 @@ impl Point {
             cost: self.cost,
         }
     }
+}
+
+/// Where [`Single::refine`] starts.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Start {
+    /// Grid position (window pixels).
+    pub gx: f64,
+    pub gy: f64,
+    /// First step (window pixels) of a pattern search run before Gauss–Newton, as
+    /// [`super::generic::Model::descend`] does it (for starts that may lie several pixels
+    /// from the minimum); 0: none.
+    pub pattern: f64,
 }
 
 /// Per-worker buffers of the fused pass (interpolated tuple and gradients).
@@ -402,15 +416,14 @@ impl<'a> Single<'a> {
         }
     }
 
-    /// Gauss–Newton from (gx, gy) (see the module docs) with the weights `w` (`None`: all
-    /// lights). The result's tuple is left in `b` only when `b_holds` of the returned pair
-    /// is true.
+    /// Gauss–Newton from `start` (see the module docs), after its pattern search if it
+    /// asks for one, with the weights `w` (`None`: all lights). The result's tuple is
+    /// left in `b` only when the second value of the returned pair is true.
     pub fn refine(
         &self,
         t: &[f32],
         w: Option<&[f32]>,
-        gx: f64,
-        gy: f64,
+        start: Start,
         iters: usize,
         b: &mut Buf,
     ) -> (Point, bool) {
@@ -418,14 +431,14 @@ impl<'a> Single<'a> {
         if let Some(cpu) = self.fma {
             // SAFETY: the token `cpu` exists only where the processor has AVX and FMA,
             // all that `refine_fma` needs
-            return unsafe { self.refine_fma(cpu, t, w, gx, gy, iters, b) };
+            return unsafe { self.refine_fma(cpu, t, w, start, iters, b) };
         }
         #[cfg(target_arch = "x86_64")]
         if let Some(cpu) = self.avx {
             // SAFETY: the token `cpu` exists only where the processor has AVX
-            return unsafe { self.refine_avx(cpu, t, w, gx, gy, iters, b) };
+            return unsafe { self.refine_avx(cpu, t, w, start, iters, b) };
         }
-        self.refine_with::<lanes::V4>(Baseline, t, w, gx, gy, iters, b)
+        self.refine_with::<lanes::V4>(Baseline, t, w, start, iters, b)
     }
 
     /// [`Single::refine`] compiled with AVX, on 8-lane vectors (the lane sums are taken
@@ -438,12 +451,11 @@ impl<'a> Single<'a> {
         cpu: Avx,
         t: &[f32],
         w: Option<&[f32]>,
-        gx: f64,
-        gy: f64,
+        start: Start,
         iters: usize,
         b: &mut Buf,
     ) -> (Point, bool) {
-        self.refine_with::<lanes::V8>(cpu, t, w, gx, gy, iters, b)
+        self.refine_with::<lanes::V8>(cpu, t, w, start, iters, b)
     }
 
     /// [`Single::refine`] compiled with AVX and FMA, on 8-lane vectors with fused
@@ -456,29 +468,30 @@ impl<'a> Single<'a> {
         cpu: AvxFma,
         t: &[f32],
         w: Option<&[f32]>,
-        gx: f64,
-        gy: f64,
+        start: Start,
         iters: usize,
         b: &mut Buf,
     ) -> (Point, bool) {
-        self.refine_with::<lanes::V8F>(cpu, t, w, gx, gy, iters, b)
+        self.refine_with::<lanes::V8F>(cpu, t, w, start, iters, b)
     }
 
     /// The body of [`Single::refine`], inlined into each build.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     fn refine_with<V: Lanes>(
         &self,
         cpu: V::Cpu,
         t: &[f32],
         w: Option<&[f32]>,
-        gx: f64,
-        gy: f64,
+        start: Start,
         iters: usize,
         b: &mut Buf,
     ) -> (Point, bool) {
-        let mut cur = self.eval::<V>(cpu, t, w, gx, gy, b);
-        let mut fresh = true;
+        let cur = self.eval::<V>(cpu, t, w, start.gx, start.gy, b);
+        let (mut cur, mut fresh) = if start.pattern > 0.0 {
+            self.pattern_search::<V>(cpu, (t, w), cur, start.pattern, b)
+        } else {
+            (cur, true)
+        };
         for _ in 0..iters {
             let [h11, h12, h22] = cur.h;
             let damp = 1e-6 * (h11 + h22) + 1e-12;
@@ -518,6 +531,38 @@ impl<'a> Single<'a> {
     }
 }
 
+impl Single<'_> {
+    /// The pattern search of [`Start::pattern`] from `best` (evaluated): the 8 neighbours
+    /// at distance h, a move to the best improvement, h halved when none improves, down
+    /// to half a pixel. Returns the best point and whether `b` holds its tuple.
+    #[inline(always)]
+    fn pattern_search<V: Lanes>(
+        &self,
+        cpu: V::Cpu,
+        (t, w): (&[f32], Option<&[f32]>),
+        mut best: Point,
+        step: f64,
+        b: &mut Buf,
+    ) -> (Point, bool) {
+        let (mut h, mut fresh) = (step, true);
+        while h >= 0.5 {
+            let mut moved = false;
+            for (dx, dy) in NEIGHBOURS {
+                let f = self.eval::<V>(cpu, t, w, best.gx + dx * h, best.gy + dy * h, b);
+                fresh = f.cost < best.cost;
+                if fresh {
+                    best = f;
+                    moved = true;
+                }
+            }
+            if !moved {
+                h /= 2.0;
+            }
+        }
+        (best, fresh)
+    }
+}
+
 /// The step (dx, dy) of squared length `len2` shortened to [`MAX_STEP`]: out of line, so
 /// that the usual short step does not wait on its square root and division.
 #[cold]
@@ -528,127 +573,4 @@ fn shorten(dx: f64, dy: f64, len2: f64) -> (f64, f64) {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::image::{dot3, normalize};
-    use crate::lut::fit::generic::{Model, Scratch};
-    use crate::lut::table::test_sphere_table;
-    use crate::sphere::Circle;
-
-    /// [`Single::eval`] on 8 AVX lanes.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    fn eval_avx(
-        cpu: Avx,
-        single: &Single,
-        t: &[f32],
-        w: Option<&[f32]>,
-        gx: f64,
-        gy: f64,
-        b: &mut Buf,
-    ) -> Point {
-        single.eval::<lanes::V8>(cpu, t, w, gx, gy, b)
-    }
-
-    /// [`Single::eval`] on 8 AVX lanes with FMA.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,fma")]
-    fn eval_fma(
-        cpu: AvxFma,
-        single: &Single,
-        t: &[f32],
-        w: Option<&[f32]>,
-        gx: f64,
-        gy: f64,
-        b: &mut Buf,
-    ) -> Point {
-        single.eval::<lanes::V8F>(cpu, t, w, gx, gy, b)
-    }
-
-    /// The 8-lane builds agree with the 4-lane one to rounding.
-    #[cfg(target_arch = "x86_64")]
-    fn check_wide(single: &Single, t: &[f32], w: Option<&[f32]>, g: (f64, f64), p: &Point) {
-        let mut b = Buf::new(t.len());
-        let mut wide = Vec::new();
-        if let Some(cpu) = Avx::detect() {
-            // SAFETY: the token exists only where the processor has AVX
-            wide.push(unsafe { eval_avx(cpu, single, t, w, g.0, g.1, &mut b) });
-        }
-        if let Some(cpu) = AvxFma::detect() {
-            // SAFETY: the token exists only where the processor has AVX and FMA
-            wide.push(unsafe { eval_fma(cpu, single, t, w, g.0, g.1, &mut b) });
-        }
-        for p8 in wide {
-            assert!((p8.cost - p.cost).abs() <= 1e-5 * (1.0 + p.cost));
-            assert!((p8.c - p.c).abs() < 1e-5);
-            let (h, h8) = (p.h[0] + p.h[2], p8.h[0] + p8.h[2]);
-            assert!((h8 - h).abs() <= 1e-4 * h.abs(), "8 lanes {h8} vs {h}");
-            let (g, g8) = (p.g[0].hypot(p.g[1]), p8.g[0].hypot(p8.g[1]));
-            assert!((g8 - g).abs() <= 1e-4 * (g + 1e-3), "8 lanes {g8} vs {g}");
-        }
-    }
-
-    /// A 64² sphere (radius 28 px) under `k` lights, diffuse + a Blinn–Phong lobe.
-    fn table(k: usize) -> Table {
-        let circle = Circle {
-            cx: 32.3,
-            cy: 31.8,
-            radius: 28.0,
-        };
-        test_sphere_table(64, circle, k, |n, i| {
-            let a = i as f32 * 2.4;
-            let l = normalize([0.5 * a.cos(), 0.5 * a.sin(), 0.8]);
-            let h = normalize([l[0], l[1], l[2] + 1.0]);
-            0.7 * dot3(n, l).max(0.0) + 0.4 * dot3(n, h).max(0.0).powi(20)
-        })
-    }
-
-    #[test]
-    fn fused_pass_matches_the_generic_model_and_converges() {
-        // K = 5 needs padding (a copy of the window), K = 8 does not
-        for k in [5, 8] {
-            for scale in [false, true] {
-                let tables = [table(k)];
-                let model = Model::new(&tables, scale);
-                let single = Single::new(&tables[0], scale);
-                let (kp, truth) = (padded(k), (20.3, 25.7));
-                let mut s = Scratch::new(k);
-                model.sample(truth.0, truth.1, &mut s, false);
-                let albedo = if scale { 0.8 } else { 1.0 };
-                let mut t = vec![0.0f32; kp];
-                t[..k]
-                    .iter_mut()
-                    .zip(&s.basis[0])
-                    .for_each(|(t, v)| *t = albedo * v);
-                let mut w = vec![0.0f32; kp];
-                w[..k].fill(1.0);
-                w[2] = 0.0;
-                let mut b = Buf::new(k);
-                let ones = {
-                    let mut o = vec![0.0f32; kp];
-                    o[..k].fill(1.0);
-                    o
-                };
-                for (gx, gy) in [(18.2, 24.9), (21.0, 26.5), (30.4, 12.1)] {
-                    for (ws, wf) in [(Some(&w[..]), &w), (None, &ones)] {
-                        let p = single.eval::<lanes::V4>(Baseline, &t, ws, gx, gy, &mut b);
-                        #[cfg(target_arch = "x86_64")]
-                        check_wide(&single, &t, ws, (gx, gy), &p);
-                        let f = model.eval(&t[..k], Some(&wf[..k]), gx, gy, &mut s);
-                        assert!(
-                            (p.cost - f.cost).abs() <= 1e-5 * (1.0 + f.cost),
-                            "K {k} scale {scale}: cost {} vs {}",
-                            p.cost,
-                            f.cost
-                        );
-                        assert!((p.c - f.coef[0]).abs() < 1e-5);
-                    }
-                }
-                let (p, _) = single.refine(&t, Some(&w), 19.0, 24.6, 8, &mut b);
-                let err = ((p.gx - truth.0).powi(2) + (p.gy - truth.1).powi(2)).sqrt();
-                assert!(err < 0.01, "K {k} scale {scale}: {err} px off");
-                assert!((p.c - albedo).abs() < 1e-3, "K {k}: c = {}", p.c);
-            }
-        }
-    }
-}
+mod tests;

@@ -465,7 +465,8 @@ fn inverse_entry(mut m: [[f64; 4]; 4], j: usize) -> Option<f64> {
     Some(x[j] / m[j][j])
 }
 
-const NEIGHBOURS: [(f64, f64); 8] = [
+/// The 8 directions of the pattern search ([`Model::descend`]), in the order tried.
+pub(crate) const NEIGHBOURS: [(f64, f64); 8] = [
     (1.0, 0.0),
     (-1.0, 0.0),
     (0.0, 1.0),

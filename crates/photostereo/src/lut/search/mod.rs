@@ -1,16 +1,16 @@
 //! The per-pixel pipeline: candidate search, re-ranking, refinement, cast shadows and
 //! confidence (see the parent module for the method).
 
-use super::fit::fused::{self, Buf, Single};
+use super::fit::fused::{self, Buf, Single, Start};
 use super::fit::generic::{Fit, Model, Scratch};
 use super::fit::rim::{Rim, RimBuf};
 use super::options::{Method, Options};
 use super::output::PixelOut;
 use super::table::Table;
-use crate::image::normalize;
 use std::sync::atomic::AtomicU32;
 
 mod certify;
+mod global;
 pub mod index;
 mod mixture;
 mod prep;
@@ -469,15 +469,33 @@ impl<'a> Solver<'a> {
     /// fused single-table path when there is one table; returns `start` when its cost is
     /// lower than that of the refinement.
     fn refine(&self, weighted: bool, start: Fit, wk: &mut Work) -> Fit {
+        self.refine_after_pattern(weighted, start, 0.0, wk)
+    }
+
+    /// [`Solver::refine`] after a pattern search from `start` with a first step of
+    /// `pattern` px ([`Model::descend`]; 0: none).
+    fn refine_after_pattern(&self, weighted: bool, start: Fit, pattern: f64, wk: &mut Work) -> Fit {
         let k = self.model.k;
         let iters = self.opts.max_iterations;
         let Some(single) = &self.single else {
             wk.fresh = false;
+            let (t, s) = (&wk.t[..k], &mut wk.s);
             let w = weighted.then_some(&wk.w[..k]);
-            return self.model.refine(&wk.t[..k], w, start, iters, &mut wk.s);
+            let start = if pattern > 0.0 {
+                let at = self.model.eval(t, w, start.gx, start.gy, s);
+                self.model.descend(t, w, at, pattern, s)
+            } else {
+                start
+            };
+            return self.model.refine(t, w, start, iters, s);
         };
         let weights = weighted.then_some(&wk.w[..]);
-        let (p, fresh) = single.refine(&wk.t, weights, start.gx, start.gy, iters, &mut wk.b);
+        let from = Start {
+            gx: start.gx,
+            gy: start.gy,
+            pattern,
+        };
+        let (p, fresh) = single.refine(&wk.t, weights, from, iters, &mut wk.b);
         if p.cost > start.cost {
             wk.fresh = false;
             return start;
@@ -494,157 +512,6 @@ impl<'a> Solver<'a> {
         self.opts.shadow_level * reference
     }
 
-    /// Nearest entries in the index (the `candidates` nearest in the projected space),
-    /// re-ranked on the full K-dimensional cost with the weights in `wk.w` (`weighted`)
-    /// or all lights; the best one as a fit. The search is seeded with the previous pixel's
-    /// candidates, or with the entries around `near` when checking a fit (seeds only
-    /// speed the search up: the candidates are the same); it is not run again when this
-    /// pixel's candidates are known already (the masked shortcut's check found them).
-    fn tree_match(&self, index: &Index, near: Option<&Fit>, weighted: bool, wk: &mut Work) -> Fit {
-        if wk.candidates {
-            return self.best_of_seeds(weighted, wk);
-        }
-        self.query(index, wk);
-        if let Some(f) = near {
-            wk.seeds.clear();
-            let (c0, r0) = (
-                f.gx.floor().max(0.0) as usize,
-                f.gy.floor().max(0.0) as usize,
-            );
-            for (dr, dc) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
-                let e = self.entry_at(r0 + dr, c0 + dc);
-                if e != u32::MAX {
-                    wk.seeds.push(e);
-                }
-            }
-        }
-        let cands = index.nearest(&wk.q[..index.dims()], self.opts.candidates, &wk.seeds);
-        wk.seeds.clear();
-        wk.seeds.extend_from_slice(&cands.ids[..cands.len]);
-        wk.candidates = true;
-        self.best_of_seeds(weighted, wk)
-    }
-
-    /// The entry of `wk.seeds` (the last tree search's candidates) that fits the target
-    /// best with the weights in `wk.w` (`weighted`) or all lights, as a fit.
-    fn best_of_seeds(&self, weighted: bool, wk: &Work) -> Fit {
-        let k = self.model.k;
-        let t = &wk.t[..k];
-        let w = weighted.then_some(&wk.w[..k]);
-        let mut best = (f32::INFINITY, [1.0, 0.0], u32::MAX);
-        for &e in &wk.seeds {
-            let tuple = &self.model.tables[0].entries.tuples[e as usize * k..(e as usize + 1) * k];
-            let (coef, cost) = self.model.fit_with(t, w, tuple, tuple);
-            if cost < best.0 {
-                best = (cost, coef, e);
-            }
-        }
-        let e = if best.2 == u32::MAX { 0 } else { best.2 };
-        let (gx, gy) = self.entry_grid(e);
-        Fit {
-            gx,
-            gy,
-            coef: best.1,
-            cost: best.0,
-        }
-    }
-
-    /// The current pixel's (normalised when asked) tuple projected into the index's
-    /// space (computed once per pixel, kept in `wk.q`).
-    fn query<'q>(&self, index: &Index, wk: &'q mut Work) -> &'q [f32] {
-        let d = index.dims();
-        if wk.projected {
-            return &wk.q[..d];
-        }
-        wk.projected = true;
-        let t = &wk.t[..self.model.k];
-        let (qd, rest) = wk.q.split_at_mut(d);
-        if self.opts.normalize {
-            let norm = t.iter().map(|v| v * v).sum::<f32>().sqrt().max(1e-12);
-            for (r, v) in rest.iter_mut().zip(t) {
-                *r = v / norm;
-            }
-            index.project(&rest[..t.len()], qd);
-        } else {
-            index.project(t, qd);
-        }
-        qd
-    }
-
-    /// Exhaustive search on the coarse grid with the weights in `wk.w` (`weighted`) or
-    /// all lights, then pattern descent from the best few and Gauss–Newton from the best of
-    /// those.
-    fn exhaustive(&self, weighted: bool, wk: &mut Work) -> Fit {
-        let k = self.model.k;
-        let t = &wk.t[..k];
-        let w = weighted.then_some(&wk.w[..k]);
-        let mut keep: [(f32, usize); COARSE_KEEP] = [(f32::INFINITY, 0); COARSE_KEEP];
-        for (j, _) in self.coarse_pos.iter().enumerate() {
-            let a = &self.coarse_basis[0][j * k..(j + 1) * k];
-            let b = if self.model.is_mix() {
-                &self.coarse_basis[1][j * k..(j + 1) * k]
-            } else {
-                a
-            };
-            let (_, cost) = self.model.fit_with(t, w, a, b);
-            if cost < keep[COARSE_KEEP - 1].0 {
-                keep[COARSE_KEEP - 1] = (cost, j);
-                keep.sort_by(|x, y| x.0.total_cmp(&y.0));
-            }
-        }
-        let start = self.best_descent(weighted, &keep, wk);
-        self.refine(weighted, start, wk)
-    }
-
-    /// Pattern descent from each kept coarse point (finite cost) down to half a pixel;
-    /// the best of those, or the first coarse point when none is kept: the start of the
-    /// refinement, for the single table's and the mixture's exhaustive searches.
-    fn best_descent(&self, weighted: bool, keep: &[(f32, usize)], wk: &mut Work) -> Fit {
-        let k = self.model.k;
-        let (t, s) = (&wk.t[..k], &mut wk.s);
-        let w = weighted.then_some(&wk.w[..k]);
-        let mut best: Option<Fit> = None;
-        for &(_, j) in keep.iter().filter(|c| c.0.is_finite()) {
-            let (gx, gy) = self.coarse_pos[j];
-            let start = self.model.eval(t, w, gx, gy, s);
-            let f = self.model.descend(t, w, start, self.coarse_step / 2.0, s);
-            if best.is_none_or(|b| f.cost < b.cost) {
-                best = Some(f);
-            }
-        }
-        best.unwrap_or_else(|| {
-            let (gx, gy) = self.coarse_pos[0];
-            self.model.eval(t, w, gx, gy, s)
-        })
-    }
-
-    /// The baseline: normals of the m nearest entries averaged with weights 1/distance.
-    fn inverse_distance(&self, index: &Index, m: usize, wk: &mut Work) -> PixelOut {
-        let k = self.model.k;
-        self.query(index, wk);
-        let cands = index.nearest(&wk.q[..index.dims()], m, &wk.seeds);
-        wk.seeds.clear();
-        wk.seeds.extend_from_slice(&cands.ids[..cands.len]);
-        let (t, s) = (&wk.t[..k], &mut wk.s);
-        let t0 = &self.model.tables[0];
-        let mut acc = [0.0f32; 3];
-        for c in 0..cands.len {
-            let d = cands.dist[c].sqrt();
-            let n = t0.entries.normals[cands.ids[c] as usize];
-            if d <= 1e-9 {
-                acc = n;
-                break;
-            }
-            (0..3).for_each(|i| acc[i] += n[i] / d);
-        }
-        let e = cands.ids[0];
-        let (gx, gy) = self.entry_grid(e);
-        let fit = self.model.eval(t, None, gx, gy, s);
-        let mut out = self.finish(t, &self.ones[..k], fit, 0, wk.norm);
-        out.normal = normalize(acc);
-        out
-    }
-
     /// Normal, residual and confidence of a final fit; `norm` is ‖t‖ (the weights are all 1 when no light is `shadowed`).
     fn finish(&self, t: &[f32], w: &[f32], fit: Fit, shadowed: u16, norm: f32) -> PixelOut {
         let (used, energy) = if shadowed == 0 {
@@ -656,9 +523,11 @@ impl<'a> Solver<'a> {
         let rms_r = (fit.cost.max(0.0) / used).sqrt();
         let rms_t = (energy / used).sqrt();
         let level = self.level(&fit);
-        let lit = (t.iter().zip(self.floors))
-            .filter(|&(&v, &floor)| v - floor >= level && v > floor)
-            .count();
+        // branch-free, so that the count over the lights is vectorised
+        let lit: u32 = (t.iter().zip(self.floors))
+            .map(|(&v, &floor)| u32::from((v - floor >= level) & (v > floor)))
+            .sum();
+        let lit = lit as usize;
         let rel = if rms_t > 0.0 {
             rms_r / rms_t
         } else {

@@ -124,11 +124,14 @@ impl Solver<'_> {
             return self.mixture_fit(true, Some(from), wk);
         }
         let k = self.model.k;
+        // `from`'s cost is on all lights: not a bound for the search on fewer
+        let start = Fit {
+            cost: f32::INFINITY,
+            ..from
+        };
+        let local = self.refine_after_pattern(true, start, 4.0, wk);
         let (t, w) = (&wk.t[..k], &wk.w[..k]);
-        let start = self.model.eval(t, Some(w), from.gx, from.gy, &mut wk.s);
-        let local = self.model.descend(t, Some(w), start, 4.0, &mut wk.s);
         let energy: f32 = t.iter().zip(w).map(|(t, w)| w * t * t).sum();
-        let local = self.refine(true, local, wk);
         let rel = if energy > 0.0 {
             (local.cost.max(0.0) / energy).sqrt()
         } else {
