@@ -123,7 +123,8 @@ def main():
     for line in out.splitlines():
         cols = line.split()
         if cols and cols[0] in labels:
-            rate, cpu_rate = float(cols[4]), int(cols[1]) / float(cols[3]) / 1e6
+            # from the pixels and seconds columns: the Mpx/s column is rounded to 0.1
+            rate, cpu_rate = int(cols[1]) / float(cols[2]) / 1e6, int(cols[1]) / float(cols[3]) / 1e6
             print(f"photostereo {cols[0]}: {rate:.2f} Mpx/s = {rate / sk_rate:.1f}x scikit-learn "
                   f"(wall); {cpu_rate:.3f} Mpx per CPU s = {cpu_rate / sk_cpu_rate:.1f}x "
                   f"(CPU time, steadier on a loaded machine); {labels[cols[0]]}; target >= 18x")

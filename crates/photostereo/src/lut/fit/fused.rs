@@ -419,6 +419,7 @@ impl<'a> Single<'a> {
     /// Gauss–Newton from `start` (see the module docs), after its pattern search if it
     /// asks for one, with the weights `w` (`None`: all lights). The result's tuple is
     /// left in `b` only when the second value of the returned pair is true.
+    #[inline]
     pub fn refine(
         &self,
         t: &[f32],
