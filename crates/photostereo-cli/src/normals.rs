@@ -7,7 +7,6 @@ use anyhow::Context;
 use photostereo::io;
 use photostereo::lambertian;
 use photostereo::lut::{self, Method, Table};
-use photostereo::progress::NoProgress;
 use photostereo::{normals, spatial};
 use photostereo::{GrayImage, Mask, NormalMap};
 use std::path::{Path, PathBuf};
@@ -298,13 +297,14 @@ fn lambertian_normals(
     // measured on the robust fits whatever the solver (Options::for_black_level); the
     // level is taken off by the solve and the spatial stage, not from a copy of the stack
     let stack = &data.stack;
-    let decision = lambertian::decide_black_level(black, (stack, mask, lights), &opts, 1.0)?;
+    let (out, decision) =
+        lambertian::solve_with_black_level(black, (stack, mask, lights), &opts, 1.0)?;
     if !global.quiet && (decision.measured.is_some() || decision.level > 0.0) {
         println!("{}", decision.describe());
     }
     opts.black_level = decision.level;
     let input = normals::Input::Lambertian(lights, &opts);
-    let out = normals::pixelwise(stack, mask, &input, &NoProgress)?;
+    let out = normals::from_lambertian(out);
     if !global.quiet {
         println!("Lambertian least squares on {} pixels", mask.count());
     }

@@ -189,9 +189,10 @@ pub fn lambertian(
     let out = crate::compute(py, move || {
         // the images as given are the full scale's unit (levels are fractions of it)
         let data = (&stack, &mask, &lights);
-        lo.black_level = lamb::decide_black_level(black_level.0, data, &lo, 1.0)?.level;
+        let (out, decision) = lamb::solve_with_black_level(black_level.0, data, &lo, 1.0)?;
+        lo.black_level = decision.level;
         let input = normals::Input::Lambertian(&lights, &lo);
-        normals::solve(&stack, &mask, &input, &opts, &NoProgress)
+        normals::spatial_stage(&stack, &mask, &input, &opts, normals::from_lambertian(out))
     })?;
     Ok(result(py, out))
 }

@@ -36,7 +36,9 @@
 //! when the lights lie on one cone about an axis (a ring at one elevation): the offset
 //! is then a tilt of every normal towards that axis. Whether a measured level is taken
 //! off is one rule for every caller ([`BlackLevel::is_taken`]; [`BlackLevelChoice`] and
-//! [`decide_black_level`] for `auto`, `none` or a given level).
+//! [`decide_black_level`] for `auto`, `none` or a given level). [`solve_with_black_level`]
+//! decides and solves in one call, and where no level is taken the fits that measured it
+//! are the solve's own (one pass over the stack, not two).
 //!
 //! R. J. Woodham, "Photometric method for determining surface orientation from
 //! multiple images", Optical Engineering 19(1), 1980.
@@ -51,8 +53,8 @@ use rayon::prelude::*;
 mod black_level;
 use black_level::black_terms;
 pub use black_level::{
-    decide_black_level, estimate_black_level, BlackLevel, BlackLevelChoice, BlackLevelDecision,
-    BlackLevelSums, MAX_BLACK_LEVEL,
+    decide_black_level, estimate_black_level, solve_with_black_level, BlackLevel, BlackLevelChoice,
+    BlackLevelDecision, BlackLevelSums, MAX_BLACK_LEVEL,
 };
 
 /// Settings of [`solve`]. `Default` is the robust solver; [`Options::plain`] is
@@ -114,7 +116,7 @@ impl Options {
     /// [`Options::black_level`] — a plain fit keeps the shadows, which the offset's model
     /// (every used sample lit) does not hold.
     pub fn for_black_level(&self) -> Options {
-        if self.reject_shadows && self.reject_highlights {
+        if self.measures_black_level() {
             self.clone()
         } else {
             Options {
@@ -122,6 +124,12 @@ impl Options {
                 ..Options::default()
             }
         }
+    }
+
+    /// Whether the black level is measured on the fits of these very options
+    /// ([`Options::for_black_level`] is a copy of them).
+    fn measures_black_level(&self) -> bool {
+        self.reject_shadows && self.reject_highlights
     }
 }
 
@@ -145,7 +153,11 @@ pub struct Output {
 /// [`Error::InvalidInput`] for coplanar lights or `min_lights` < 3.
 pub fn solve(stack: &ImageStack, mask: &Mask, lights: &Lights, opts: &Options) -> Result<Output> {
     let eff = check_inputs(stack, mask, lights, opts)?;
-    let fits = fit_all(stack, mask, &eff, opts, false);
+    output(stack, &fit_all(stack, mask, &eff, opts, false))
+}
+
+/// The output images of every pixel's fit (`fits` from [`fit_all`] on `stack`).
+fn output(stack: &ImageStack, fits: &[PixelFit]) -> Result<Output> {
     let (w, h) = (stack.width, stack.height);
     Ok(Output {
         normals: Image::from_vec(w, h, fits.iter().map(|f| f.normal).collect())?,

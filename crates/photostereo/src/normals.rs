@@ -128,6 +128,15 @@ pub fn solve(
     spatial_stage(stack, mask, input, opts, out)
 }
 
+/// The [`pixelwise`] output of a Lambertian solve (for callers that ran it themselves,
+/// e.g. with [`lambertian::solve_with_black_level`]).
+pub fn from_lambertian(out: lambertian::Output) -> Output {
+    Output {
+        albedo: Some(out.albedo),
+        ..bare(out.normals, out.residual)
+    }
+}
+
 /// Each pixel's own normal: the lookup or the Lambertian solve, nothing of the noise or
 /// of the neighbours yet.
 pub fn pixelwise(
@@ -143,11 +152,7 @@ pub fn pixelwise(
         ),
         Input::Lookup(l) => (l.solve(stack, mask, progress)?, l.options().clone()),
         Input::Lambertian(lights, o) => {
-            let out = lambertian::solve(stack, mask, lights, o)?;
-            return Ok(Output {
-                albedo: Some(out.albedo),
-                ..bare(out.normals, out.residual)
-            });
+            return Ok(from_lambertian(lambertian::solve(stack, mask, lights, o)?));
         }
     };
     Ok(Output {

@@ -5,7 +5,8 @@ use common::angle_deg;
 use photostereo::error::Error;
 use photostereo::image::{ImageStack, Lights, Mask, NormalMap};
 use photostereo::lambertian::{
-    estimate_black_level, solve, BlackLevel, BlackLevelSums, Options, Output,
+    decide_black_level, estimate_black_level, solve, solve_with_black_level, BlackLevel,
+    BlackLevelChoice, BlackLevelSums, Options, Output,
 };
 use photostereo::synth::{default_lights, render, Material, Scene, SceneOptions, Shape, ShapeKind};
 
@@ -306,4 +307,60 @@ fn a_black_level_summed_over_bands_is_that_of_the_whole_stack() {
     let few = ImageStack::zeros(scene.stack.width, 2, 3);
     let err = sums.add(&few, &Mask::full(few.width, 2)).unwrap_err();
     assert!(matches!(err, Error::LightCount { .. }), "{err}");
+}
+
+/// One solve's images, bit for bit.
+fn same_output(a: &Output, b: &Output) -> bool {
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let normals = |o: &Output| bits(&o.normals.data.iter().flatten().copied().collect::<Vec<_>>());
+    normals(a) == normals(b)
+        && bits(&a.albedo.data) == bits(&b.albedo.data)
+        && bits(&a.residual.data) == bits(&b.residual.data)
+        && a.used_lights.data == b.used_lights.data
+}
+
+#[test]
+fn solving_with_a_black_level_choice_is_deciding_then_solving() {
+    // auto on a clean capture (one pass: the measuring fits are the solve's) and on one
+    // with an offset (taken off, solved again); none and a given level; the robust and
+    // the plain solver (the plain one measures on other fits)
+    let opts = scene_options(ShapeKind::Blob, 96, Material::lambertian(0.8), 12);
+    let clean = render(&opts).unwrap();
+    let mut lifted = clean.clone();
+    lifted.stack.data.iter_mut().for_each(|v| *v += 0.03);
+    let choices = [
+        BlackLevelChoice::Auto,
+        BlackLevelChoice::None,
+        BlackLevelChoice::Given(0.02),
+    ];
+    for (scene, name) in [(&clean, "clean"), (&lifted, "offset 0.03")] {
+        let data = (&scene.stack, &scene.mask, &scene.lights);
+        for opts in [Options::default(), Options::plain()] {
+            for choice in choices {
+                let (out, d) = solve_with_black_level(choice, data, &opts, 1.0).unwrap();
+                let expected = decide_black_level(choice, data, &opts, 1.0).unwrap();
+                assert_eq!(d, expected, "{name} {choice:?}");
+                let o = Options {
+                    black_level: expected.level,
+                    ..opts.clone()
+                };
+                let solved = solve_scene(scene, &o);
+                assert!(same_output(&out, &solved), "{name} {choice:?}");
+            }
+        }
+        let d = solve_with_black_level(BlackLevelChoice::Auto, data, &Options::default(), 1.0);
+        let taken = d.unwrap().1.level;
+        // the clean capture's level is not taken, the offset's is (to 3%)
+        match name {
+            "clean" => assert_eq!(taken, 0.0),
+            _ => assert!((taken - 0.03).abs() < 0.03 * 0.03, "{taken}"),
+        }
+    }
+    let refused = solve_with_black_level(
+        BlackLevelChoice::Given(0.3),
+        (&clean.stack, &clean.mask, &clean.lights),
+        &Options::default(),
+        1.0,
+    );
+    assert!(refused.is_err());
 }

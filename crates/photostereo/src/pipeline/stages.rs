@@ -138,11 +138,10 @@ fn lambertian(
     let mut lo = opts.lambertian.clone();
     let (out, decision) = st.run("Lambertian photometric stereo", |p| {
         let data = (stack, mask, lights);
-        let d = lambertian::decide_black_level(opts.black_level, data, &lo, full_scale)?;
+        let (out, d) = lambertian::solve_with_black_level(opts.black_level, data, &lo, full_scale)?;
         note_black_level(&d, p);
         lo.black_level = d.level;
-        let input = normals::Input::Lambertian(lights, &lo);
-        Ok((normals::pixelwise(stack, mask, &input, p)?, d))
+        Ok((normals::from_lambertian(out), d))
     })?;
     let input = normals::Input::Lambertian(lights, &lo);
     let mut est = spatial_of(st, job, opts, &input, out)?;
