@@ -171,8 +171,8 @@ pub fn decide_black_level(
 /// the level is measured on the solve's own fits ([`BlackLevelChoice::Auto`] with options
 /// that reject shadows and highlights, the default) and none is taken, those fits are the
 /// solve's: one pass over the stack instead of two, so that measuring costs a clean
-/// capture nothing (a 1024² 8-bit blob, `normals --lambertian`: `auto` took 1.3–1.5 s
-/// against 0.93–0.98 s for `none` before).
+/// capture nothing (a clean 1024² 8-bit blob, `normals --lambertian` as a whole process:
+/// `auto` took 1.0–1.5 s against 0.9–1.1 s for `none` before, docs/benchmarks.md).
 ///
 /// Errors: as [`decide_black_level`] and [`super::solve`].
 pub fn solve_with_black_level(
@@ -205,7 +205,7 @@ pub fn solve_with_black_level(
     if decision.level == base {
         Ok((output(stack, &fits)?, decision))
     } else {
-        drop(fits);
+        drop(fits); // before the second solve's own fits
         with_level(decision)
     }
 }
