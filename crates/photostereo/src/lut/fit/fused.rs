@@ -534,8 +534,9 @@ impl<'a> Single<'a> {
 
 impl Single<'_> {
     /// The pattern search of [`Start::pattern`] from `best` (evaluated): the 8 neighbours
-    /// at distance h, a move to the best improvement, h halved when none improves, down
-    /// to half a pixel. Returns the best point and whether `b` holds its tuple.
+    /// at distance h in turn, moving to each one that improves (the next neighbours are
+    /// then taken around it), h halved after a round without a move, down to half a
+    /// pixel. Returns the best point and whether `b` holds its tuple.
     #[inline(always)]
     fn pattern_search<V: Lanes>(
         &self,

@@ -155,8 +155,9 @@ impl<'a> Model<'a> {
     }
 
     /// Pattern search on the grid around `start`: try the 8 neighbours at distance
-    /// `step`, move to the best improvement, halve the step when none improves, stop
-    /// below half a pixel.
+    /// `step` in turn, moving to each one that improves (the next neighbours are then
+    /// taken around it), halve the step after a round without a move, stop below half a
+    /// pixel.
     pub fn descend(
         &self,
         t: &[f32],
