@@ -198,7 +198,7 @@ pub fn solve_with_black_level(
     }
     let eff = check_inputs(stack, mask, lights, opts)?;
     let fits = fit_all(stack, mask, &eff, opts, true);
-    let mut sums = BlackLevelSums::new(lights, opts)?;
+    let mut sums = BlackLevelSums::with_lights(eff, opts);
     sums.add_fits(&fits);
     let base = opts.black_level;
     let decision = BlackLevelDecision::from_measured(sums.finish(), base, full_scale);
@@ -252,12 +252,17 @@ impl BlackLevelSums {
     /// Errors: as [`super::solve`] for the lights and `min_lights`.
     pub fn new(lights: &Lights, opts: &Options) -> Result<Self> {
         let eff = check_lights(lights.directions.len(), lights, opts)?;
-        Ok(BlackLevelSums {
+        Ok(Self::with_lights(eff, opts))
+    }
+
+    /// Empty sums for the effective light vectors `eff` (checked already).
+    fn with_lights(eff: Vec<[f64; 3]>, opts: &Options) -> Self {
+        BlackLevelSums {
             eff,
             opts: opts.clone(),
             sum: [0.0; 4],
             pixels: 0,
-        })
+        }
     }
 
     /// Add the pixels of `band` inside `band_mask` (the mask's rows of the band; it may

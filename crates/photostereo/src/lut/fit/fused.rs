@@ -530,9 +530,7 @@ impl<'a> Single<'a> {
         }
         (cur, fresh)
     }
-}
 
-impl Single<'_> {
     /// The pattern search of [`Start::pattern`] from `best` (evaluated): the 8 neighbours
     /// at distance h in turn, moving to each one that improves (the next neighbours are
     /// then taken around it), h halved after a round without a move, down to half a
