@@ -11,7 +11,8 @@ use photostereo::lambertian::{BlackLevelChoice, MAX_BLACK_LEVEL};
 pub const HELP: &str = "The camera's black level, taken off every sample before the \
 Lambertian fit: `auto` (the default: measured from the images and taken off when clearly \
 above 0; a line says what was found), `none`, or a level as a fraction of full scale (e.g. \
-0.03). A dark offset reads as light no normal explains.";
+0.03). A dark offset reads as light no normal explains. With --interreflections `auto` \
+measures nothing (bounced light reads as an offset): give the camera's level.";
 
 /// The choice of `--black-level TEXT` (`None`: the flag not given, i.e. `auto`).
 ///

@@ -67,3 +67,68 @@ fn mitsuba_vgroove_deepens_to_the_truth_with_the_radiometric_scale() {
         "unscaled depth {unscaled} vs 73.44 px"
     );
 }
+
+/// The V-groove's folder again, every sample raised by `offset` of full scale (a camera's
+/// black level; the 16-bit samples stay below 65535 for the offsets used here).
+fn with_black_level(data: &Path, offset: f64, name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch directory");
+    let add = (offset * 65535.0).round() as u16;
+    for entry in std::fs::read_dir(data).expect("read the V-groove folder") {
+        let path = entry.expect("folder entry").path();
+        let file = path.file_name().unwrap().to_string_lossy().into_owned();
+        let is_image = file.ends_with(".png") && !file.contains("mask");
+        if !is_image {
+            std::fs::copy(&path, dir.join(&file)).expect("copy a dataset file");
+            continue;
+        }
+        let mut img = image::open(&path).expect("read an image").into_luma16();
+        for v in img.pixels_mut() {
+            v.0[0] = v.0[0].checked_add(add).expect("offset within the 16 bits");
+        }
+        img.save(dir.join(&file)).expect("write an offset image");
+    }
+    dir
+}
+
+/// A camera's black level (3% of full scale) under interreflection removal: given, the
+/// groove deepens to the truth as without the offset; not taken off (`none`, and `auto`,
+/// which measures nothing there since bounced light reads as an offset), the offset is
+/// light that no shape explains and the depth and albedo come out wrong.
+#[test]
+fn mitsuba_vgroove_with_a_black_level_given_deepens_to_the_truth() {
+    const TRUE_DEPTH: f64 = 79.5;
+    let Some(data) = common::shared::path(
+        "mitsuba_vgroove_with_a_black_level_given_deepens_to_the_truth",
+        "data/vgroove_interreflect",
+    ) else {
+        return;
+    };
+    let (_, clean, _) = run_vgroove(&data, &[], "vgroove_black_clean");
+    let offset = with_black_level(&data, 0.03, "vgroove_black_data");
+    let (_, given, albedo) = run_vgroove(&offset, &["--black-level", "0.03"], "vgroove_black");
+    println!(
+        "black level 3%, given: depth {given:.2} px (true {TRUE_DEPTH}, without the offset \
+         {clean:.2}), albedo {albedo:.4}"
+    );
+    assert!(
+        (given / TRUE_DEPTH - 1.0).abs() < 0.02,
+        "depth {given} vs {TRUE_DEPTH}"
+    );
+    // the level is taken off before the bounced light is computed from the images
+    assert!(
+        (given - clean).abs() < 0.05,
+        "depth {given} vs {clean} without the offset"
+    );
+    assert!((albedo - 0.8).abs() < 0.01, "albedo {albedo} vs 0.8");
+    for choice in ["none", "auto"] {
+        let name = format!("vgroove_black_{choice}");
+        let (_, left, a) = run_vgroove(&offset, &["--black-level", choice], &name);
+        println!("black level 3%, {choice}: depth {left:.2} px, albedo {a:.4}");
+        assert!(
+            (left / TRUE_DEPTH - 1.0).abs() > 0.04 || (a - 0.8).abs() > 0.02,
+            "{choice}: the offset left in should show (depth {left}, albedo {a})"
+        );
+    }
+}

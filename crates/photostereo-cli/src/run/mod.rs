@@ -76,14 +76,9 @@ pub struct Args {
     /// Remove interreflections (Nayar–Ikeuchi–Kanade iteration; Lambertian only).
     #[arg(long)]
     pub interreflections: bool,
-    // Lambertian only (checked in `options`: --chrome implies --lambertian); the
-    // interreflection iteration models the images without an offset
-    #[arg(
-        long,
-        value_name = "LEVEL",
-        conflicts_with = "interreflections",
-        help = crate::black_level::HELP
-    )]
+    // Lambertian only (checked in `run`: --chrome implies --lambertian); with
+    // --interreflections `auto` measures nothing (the library's Options::black_level)
+    #[arg(long, value_name = "LEVEL", help = crate::black_level::HELP)]
     pub black_level: Option<String>,
     /// Facet size in pixels for --interreflections (1 = per pixel; larger is faster).
     /// Default: the smallest block (at least 2) giving at most 4096 facet cells.

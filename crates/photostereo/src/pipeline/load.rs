@@ -317,15 +317,15 @@ pub(super) fn check(inputs: &Inputs, opts: &Options) -> Result<()> {
             "they are for Lambertian photometric stereo, which was not asked for",
         ));
     }
-    // a level given or refused is for the Lambertian solve; a table carries the sphere's
-    // own, and the interreflection iteration models the images without an offset
+    // a level given or refused is for the Lambertian solve (interreflection removal
+    // included); a table carries the sphere's own
     let explicit = opts.black_level != lambertian::BlackLevelChoice::Auto;
-    if explicit && (!inputs.lambertian || opts.interreflections) {
+    if explicit && !inputs.lambertian {
         return Err(Error::setting(
             Setting::Lambertian,
             "a black level to take off (or none)",
-            "it is for Lambertian photometric stereo without interreflection removal: leave \
-             it at auto there (a lookup table carries the sphere's own black level)",
+            "it is for Lambertian photometric stereo: leave it at auto (a lookup table \
+             carries the sphere's own black level)",
         ));
     }
     Ok(())

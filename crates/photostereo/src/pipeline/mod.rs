@@ -133,14 +133,15 @@ pub struct Options {
     pub lookup: lut::Options,
     /// Settings of Lambertian photometric stereo (without interreflection removal).
     pub lambertian: lambertian::Options,
-    /// The camera's black level in Lambertian photometric stereo (without interreflection
-    /// removal; not used by a lookup, whose table carries the sphere's own): `Auto` (the
-    /// default) measures it ([`lambertian::estimate_black_level`], band by band in a run
-    /// by bands) and takes it off when [`lambertian::BlackLevel::is_taken`]; `None` takes
+    /// The camera's black level in Lambertian photometric stereo (not used by a lookup,
+    /// whose table carries the sphere's own): `Auto` (the default) measures it
+    /// ([`lambertian::estimate_black_level`], band by band in a run by bands) and takes it
+    /// off when [`lambertian::BlackLevel::is_taken`] (with [`Options::interreflections`]
+    /// it measures nothing and takes nothing off: bounced light reads as an offset); `None` takes
     /// nothing off; `Given(v)` takes off v, a fraction of the images' full scale (times
     /// the image scale of a run from paths). The level taken is set as
-    /// `lambertian.black_level` (Auto and None add to the one set there) and reported in
-    /// the figures' "black level" row.
+    /// `lambertian.black_level` (`nik.lambertian.black_level` with interreflections; Auto
+    /// and None add to the one set there) and reported in the figures' "black level" row.
     pub black_level: lambertian::BlackLevelChoice,
     /// Settings of the interreflection iteration; its integrator is [`Options::method`]
     /// (or the one chosen from the mask).
