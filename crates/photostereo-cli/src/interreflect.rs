@@ -39,9 +39,25 @@ pub struct Args {
     /// Multiply the loaded images by this factor (default: 65535/scale from meta.json, else 1).
     #[arg(long, allow_negative_numbers = true)]
     pub image_scale: Option<f32>,
+    /// The camera's black level as a fraction of full scale (e.g. 0.03), taken off the
+    /// images before the iteration (default: none). It is not measured here: bounced light
+    /// reads as an offset.
+    #[arg(long, value_name = "LEVEL", value_parser = parse_level)]
+    pub black_level: Option<f32>,
     /// Image row of the cross-section plot (default: the middle of the mask).
     #[arg(long)]
     pub row: Option<usize>,
+}
+
+/// `--black-level LEVEL`: a level in [0, MAX_BLACK_LEVEL) of full scale.
+fn parse_level(text: &str) -> Result<f32, String> {
+    use photostereo::lambertian::{BlackLevelChoice, MAX_BLACK_LEVEL};
+    match text.parse::<f32>() {
+        Ok(v) if BlackLevelChoice::Given(v).check().is_ok() => Ok(v),
+        _ => Err(format!(
+            "give a level in [0, {MAX_BLACK_LEVEL}) as a fraction of full scale (e.g. 0.03)"
+        )),
+    }
 }
 
 /// Run the subcommand.
@@ -58,7 +74,7 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
     data.stack.data.iter_mut().for_each(|v| *v *= scale);
     let lights = data.lights.clone().context("light directions")?;
     let mask = data.mask.clone().context("mask")?;
-    let nik = NikOptions {
+    let mut nik = NikOptions {
         max_iter: args.max_iter,
         tol: args.tol,
         radiosity: RadiosityOptions {
@@ -75,6 +91,8 @@ pub fn run(args: Args, global: Global) -> anyhow::Result<()> {
         scale_known: photostereo::pipeline::scale_is_known(&args.dataset, args.image_scale, true)?,
         ..Default::default()
     };
+    // a fraction of the images' full scale, which the image scale has multiplied
+    nik.lambertian.black_level = args.black_level.unwrap_or(0.0) * scale;
     let out = interreflect::solve(&data.stack, &mask, &lights, &nik, &Bar::new(global.quiet))
         .context("interreflection iteration")?;
     let truth_path = args.dataset.join("depth_gt.npy");

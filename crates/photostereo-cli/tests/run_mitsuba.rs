@@ -122,6 +122,36 @@ fn mitsuba_vgroove_with_a_black_level_given_deepens_to_the_truth() {
         "depth {given} vs {clean} without the offset"
     );
     assert!((albedo - 0.8).abs() < 0.01, "albedo {albedo} vs 0.8");
+    // the `interreflect` subcommand takes the same level off: the depth of the clean images
+    let depth = |dir: &Path, extra: &[&str], name: &str| {
+        let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+        let _ = std::fs::remove_dir_all(&out);
+        let status = Command::new(env!("CARGO_BIN_EXE_photostereo"))
+            .args(["--quiet", "interreflect"])
+            .arg(dir)
+            .args(extra)
+            .arg("-o")
+            .arg(&out)
+            .status()
+            .expect("start photostereo");
+        assert!(status.success(), "interreflect failed on {}", dir.display());
+        photostereo::io::read_gray_npy(&out.join("depth.npy")).expect("depth.npy written")
+    };
+    let (z_clean, z_given) = (
+        depth(&data, &[], "vgroove_ir_clean"),
+        depth(&offset, &["--black-level", "0.03"], "vgroove_ir_black"),
+    );
+    let worst = (z_clean.data.iter().zip(&z_given.data))
+        .filter(|(a, b)| a.is_finite() || b.is_finite())
+        .map(|(a, b)| (a - b).abs())
+        .fold(
+            0.0f32,
+            |m, d| if d.is_nan() { f32::INFINITY } else { m.max(d) },
+        );
+    println!(
+        "interreflect --black-level 0.03: largest depth change from the clean images {worst:.4} px"
+    );
+    assert!(worst < 0.05, "depth moved by {worst} px");
     for choice in ["none", "auto"] {
         let name = format!("vgroove_black_{choice}");
         let (_, left, a) = run_vgroove(&offset, &["--black-level", choice], &name);

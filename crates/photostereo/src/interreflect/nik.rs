@@ -35,6 +35,7 @@ use crate::error::{Error, Result};
 use crate::image::{DepthMap, GrayImage, ImageStack, Lights, Mask, NormalMap};
 use crate::progress::{NoProgress, Progress};
 use crate::{integrate, lambertian};
+use std::borrow::Cow;
 
 /// Options of the iteration.
 #[derive(Clone, Debug)]
@@ -47,7 +48,8 @@ pub struct NikOptions {
     /// The forward model used to predict bounced light.
     pub radiosity: RadiosityOptions,
     /// Photometric stereo used at every step (default: shadow rejection, no highlight
-    /// rejection — the model is Lambertian).
+    /// rejection — the model is Lambertian). Its `black_level` (image units) is taken off
+    /// the images once, before the iteration ([`solve`]).
     pub lambertian: lambertian::Options,
     /// Integration used at every step (default: masked least squares).
     pub integrate: integrate::Options,
@@ -79,7 +81,9 @@ impl Default for NikOptions {
 }
 
 /// The iteration with Lambertian photometric stereo ([`lambertian::solve`]) and integration
-/// ([`integrate::solve`]) on images `raw` taken under `lights`.
+/// ([`integrate::solve`]) on images `raw` taken under `lights`. The camera's black level
+/// of `opts.lambertian` is taken off `raw` before the iteration, so that the bounced
+/// light is computed from the radiance alone.
 pub fn solve(
     raw: &ImageStack,
     mask: &Mask,
@@ -95,8 +99,18 @@ pub fn solve(
             fix: "give one light direction per image (at least 3)".into(),
         });
     }
+    // the camera's black level comes off the images once, before the iteration: the
+    // bounced light is computed from the images as the radiance the facets send, which
+    // does not include it
+    let (level, mut ps_opts) = (opts.lambertian.black_level, opts.lambertian.clone());
+    let raw = if level == 0.0 {
+        Cow::Borrowed(raw)
+    } else {
+        ps_opts.black_level = 0.0;
+        Cow::Owned(without_black_level(raw, level))
+    };
     let reconstruct = |stack: &ImageStack| -> Result<Reconstruction> {
-        let ps = lambertian::solve(stack, mask, lights, &opts.lambertian)?;
+        let ps = lambertian::solve(stack, mask, lights, &ps_opts)?;
         let z = integrate::solve(&ps.normals, mask, &opts.integrate)?;
         let residual = masked_mean(&ps.residual, mask);
         Ok(Reconstruction {
@@ -106,7 +120,15 @@ pub fn solve(
             residual,
         })
     };
-    iterate(raw, mask, opts, &reconstruct, progress)
+    iterate(&raw, mask, opts, &reconstruct, progress)
+}
+
+/// `stack` less `level` in every sample (not clipped at 0, as the Lambertian solve takes
+/// a level off).
+fn without_black_level(stack: &ImageStack, level: f32) -> ImageStack {
+    let mut out = stack.clone();
+    out.data.iter_mut().for_each(|v| *v -= level);
+    out
 }
 
 /// One shape estimate: what photometric stereo + integration return for a set of images.

@@ -275,17 +275,8 @@ fn nik(
              as an offset); none taken off: give the camera's level if it has one",
         );
     }
-    // taken off the images, not by the solve: the bounced light is the radiance the
-    // facets send, which is the images less the camera's level
-    nik_opts.lambertian.black_level = 0.0;
-    let offset;
-    let target = if decision.level == 0.0 {
-        &job.target
-    } else {
-        offset = without_black_level(&job.target, decision.level);
-        &offset
-    };
-    let out = interreflect::solve(target, mask, lights, &nik_opts, progress)?;
+    nik_opts.lambertian.black_level = decision.level;
+    let out = interreflect::solve(&job.target, mask, lights, &nik_opts, progress)?;
     let plots = nik_plots(&out, mask, truth)?;
     let best = out.best_shape().clone();
     let ir = Interreflections {
@@ -307,14 +298,6 @@ fn nik(
         rows: vec![black_level_row(&decision)],
     };
     Ok((ir, est))
-}
-
-/// `stack` less `level` in every sample (not clipped at 0, as the Lambertian solve takes
-/// a level off).
-fn without_black_level(stack: &ImageStack, level: f32) -> ImageStack {
-    let mut out = stack.clone();
-    out.data.iter_mut().for_each(|v| *v -= level);
-    out
 }
 
 /// The black level of the interreflection iteration: as given (or none) by `choice`,
