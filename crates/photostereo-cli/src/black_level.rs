@@ -7,12 +7,25 @@
 use anyhow::bail;
 use photostereo::lambertian::{BlackLevelChoice, MAX_BLACK_LEVEL};
 
-/// The flag's help, shared by the subcommands that take it.
-pub const HELP: &str = "The camera's black level, taken off every sample before the \
-Lambertian fit: `auto` (the default: measured from the images and taken off when clearly \
-above 0; a line says what was found), `none`, or a level as a fraction of full scale (e.g. \
-0.03). A dark offset reads as light no normal explains. With --interreflections `auto` \
-measures nothing (bounced light reads as an offset): give the camera's level.";
+/// The flag's help text, shared by the subcommands that take it.
+macro_rules! help_text {
+    () => {
+        "The camera's black level, taken off every sample before the Lambertian fit: `auto` \
+         (the default: measured from the images and taken off when clearly above 0; a line \
+         says what was found), `none`, or a level as a fraction of full scale (e.g. 0.03). A \
+         dark offset reads as light no normal explains."
+    };
+}
+
+/// The flag's help in `normals`.
+pub const HELP: &str = help_text!();
+
+/// The flag's help in `run`, which also removes interreflections.
+pub const RUN_HELP: &str = concat!(
+    help_text!(),
+    " With --interreflections `auto` measures nothing (bounced light reads as an offset): \
+     give the camera's level."
+);
 
 /// The choice of `--black-level TEXT` (`None`: the flag not given, i.e. `auto`).
 ///

@@ -78,7 +78,7 @@ pub struct Args {
     pub interreflections: bool,
     // Lambertian only (checked in `run`: --chrome implies --lambertian); with
     // --interreflections `auto` measures nothing (the library's Options::black_level)
-    #[arg(long, value_name = "LEVEL", help = crate::black_level::HELP)]
+    #[arg(long, value_name = "LEVEL", help = crate::black_level::RUN_HELP)]
     pub black_level: Option<String>,
     /// Facet size in pixels for --interreflections (1 = per pixel; larger is faster).
     /// Default: the smallest block (at least 2) giving at most 4096 facet cells.
