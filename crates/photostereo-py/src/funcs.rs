@@ -374,10 +374,12 @@ type InterreflectOut<'py> = (
     usize,
 );
 
-/// interreflect(images, lights, mask, max_iter, tol, method, block) ->
-/// (normals, albedo, depth, summary, csv, [(t, depth_range, mean_albedo, change)], best)
+/// interreflect(images, lights, mask, max_iter, tol, method, block, black_level=0.0,
+/// full_scale=1.0) -> (normals, albedo, depth, summary, csv, [(t, depth_range,
+/// mean_albedo, change)], best); black_level: the camera's, a fraction of full_scale (the
+/// images' full scale in their units), taken off before the iteration
 #[pyfunction]
-#[pyo3(signature = (images, lights, mask=None, max_iter=10, tol=0.01, method=None, block=None))]
+#[pyo3(signature = (images, lights, mask=None, max_iter=10, tol=0.01, method=None, block=None, black_level=0.0, full_scale=1.0))]
 #[allow(clippy::too_many_arguments)]
 pub fn interreflect<'py>(
     py: Python<'py>,
@@ -388,7 +390,12 @@ pub fn interreflect<'py>(
     tol: f32,
     method: Option<&str>,
     block: Option<usize>,
+    black_level: f32,
+    full_scale: f32,
 ) -> PyResult<InterreflectOut<'py>> {
+    if let Err(e) = lamb::BlackLevelChoice::Given(black_level).check() {
+        return Err(value_error(format!("black_level={black_level}: {e}")));
+    }
     let stack = convert::stack_from(&images, Vec::new())?;
     let lights = convert::lights_from(&lights)?;
     let mask = mask_or_full(mask, &stack);
@@ -399,6 +406,7 @@ pub fn interreflect<'py>(
     };
     opts.integrate.method = self::method(method, &mask)?;
     opts.radiosity.block = block.unwrap_or(0);
+    opts.lambertian.black_level = black_level * full_scale;
     let out = crate::compute(py, move || {
         ir::solve(&stack, &mask, &lights, &opts, &NoProgress)
     })?;

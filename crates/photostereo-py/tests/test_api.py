@@ -312,6 +312,22 @@ def test_interreflect(data):
     assert len(out["iterations"]) >= 2 and isinstance(out["summary"], str)
 
 
+def test_interreflect_black_level(data):
+    # a camera's 3% black level, given, comes off before the iteration: the clean depth
+    ds = ps.load_dataset(data["bowl"])
+    clean = ps.interreflect(ds, max_iter=3)
+    raised = ds.images + np.float32(0.03)
+    given = ps.interreflect(raised, lights=ds.lights, mask=ds.mask, max_iter=3, black_level=0.03)
+    left = ps.interreflect(raised, lights=ds.lights, mask=ds.mask, max_iter=3)
+    inside = ds.mask if ds.mask is not None else np.ones(clean["depth"].shape, bool)
+    moved = np.abs(given["depth"] - clean["depth"])[inside].max()
+    off = np.abs(left["depth"] - clean["depth"])[inside].max()
+    print(f"bowl + 3% offset: depth moved {moved:.2e} px given, {off:.3f} px left in")
+    assert moved < 1e-3 < off
+    with pytest.raises(ValueError, match="black_level"):
+        ps.interreflect(raised, lights=ds.lights, mask=ds.mask, black_level=0.3)
+
+
 def test_run_equals_cli(data, cli, tmp_path):
     got = ps.run(data["blob"], tmp_path / "py", sphere=data["sphere"])
     cli("run", data["blob"], "--sphere", data["sphere"], "-o", tmp_path / "cli")

@@ -353,6 +353,7 @@ def interreflect(
     image_scale: float = 1.0,
     method: str = "auto",
     block: Optional[int] = None,
+    black_level: float = 0.0,
 ) -> dict:
     """Remove interreflections (Nayar-Ikeuchi-Kanade iteration, ``photostereo interreflect``).
 
@@ -362,6 +363,9 @@ def interreflect(
     max_iter: most compensation steps; tol: stop when the change of the shape falls
         below this fraction of the depth range.
     block: facet size in pixels (default: the smallest >= 2 giving at most 4096 facets).
+    black_level: the camera's black level as a fraction of full scale (images as read:
+        1; ``interreflect --black-level``), taken off before the iteration. It is not
+        measured here: bounced light reads as an offset.
 
     Returns a dict: "normals" (H, W, 3), "albedo" (H, W), "depth" (H, W) of the kept
     iterate, "summary", "csv", "iterations" (list of dicts: depth_range, mean_albedo,
@@ -383,6 +387,8 @@ def interreflect(
         tol=float(tol),
         method=method,
         block=None if block is None else int(block),
+        black_level=float(black_level),
+        full_scale=float(image_scale),
     )
     return {
         "normals": normals,

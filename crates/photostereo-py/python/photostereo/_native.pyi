@@ -185,6 +185,8 @@ def interreflect(
     tol: float = 0.01,
     method: Optional[str] = None,
     block: Optional[int] = None,
+    black_level: float = 0.0,
+    full_scale: float = 1.0,
 ) -> tuple[F32, F32, F32, str, str, list[tuple[int, float, float, float]], int]:
     """Nayar-Ikeuchi-Kanade iteration: (normals, albedo, depth, summary, csv, rows, best)."""
 
