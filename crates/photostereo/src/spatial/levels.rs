@@ -13,7 +13,7 @@
 //! read band by band gets the bounds of the whole stack, bit for bit.
 
 use crate::image::{ImageStack, Mask};
-use crate::stats::median;
+use crate::stats::median_smallest_gap;
 
 /// At most this many mask pixels per image are kept for the quantisation step: enough
 /// to meet neighbouring levels of an 8-bit image many times over (on a 16-bit image the
@@ -110,20 +110,8 @@ impl Levels {
 
     /// The quantisation step Δ (module docs).
     pub fn step(&self) -> f32 {
-        let mut steps: Vec<f32> = (self.values.iter())
-            .filter_map(|(v, _)| {
-                let mut v = v.clone();
-                sort_dedup(&mut v);
-                if v.len() < MIN_DISTINCT {
-                    return None;
-                }
-                v.windows(2)
-                    .map(|w| w[1] - w[0])
-                    .filter(|&d| d > 0.0)
-                    .min_by(f32::total_cmp)
-            })
-            .collect();
-        median(&mut steps).unwrap_or(0.0)
+        let mut per_image: Vec<Vec<f32>> = self.values.iter().map(|(v, _)| v.clone()).collect();
+        median_smallest_gap(per_image.iter_mut(), MIN_DISTINCT)
     }
 
     /// The censoring bounds for quantisation step `step`: the floor of each image is its

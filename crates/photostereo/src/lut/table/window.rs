@@ -4,7 +4,7 @@
 
 use crate::image::ImageStack;
 use crate::sphere::Circle;
-use crate::stats::median;
+use crate::stats::{median, median_smallest_gap};
 
 /// The sphere images on the window around the circle, pixel-major, padded outside the
 /// sphere (see the module docs).
@@ -142,18 +142,15 @@ pub fn estimate_noise(window: &Window, circle: &Circle, rim: f64) -> (f32, f32) 
 /// positive difference between two distinct values of the light; 0 when no light has
 /// two distinct values.
 fn quantisation_step(values: &[f32], k: usize) -> f32 {
-    let mut steps: Vec<f32> = (0..k)
-        .filter_map(|l| {
-            let mut v: Vec<f32> = (values.iter().skip(l).step_by(k))
+    let mut per_light: Vec<Vec<f32>> = (0..k)
+        .map(|l| {
+            (values.iter().skip(l).step_by(k))
                 .copied()
                 .filter(|v| v.is_finite())
-                .collect();
-            v.sort_unstable_by(f32::total_cmp);
-            v.dedup();
-            v.windows(2).map(|w| w[1] - w[0]).min_by(f32::total_cmp)
+                .collect()
         })
         .collect();
-    median(&mut steps).unwrap_or(0.0)
+    median_smallest_gap(per_light.iter_mut(), 2)
 }
 
 #[cfg(test)]
