@@ -441,6 +441,8 @@ def run(
     black_level: the camera's black level taken off every sample before Lambertian
         photometric stereo, as ``run --black-level``: "auto" (default; measured, taken
         off when clearly above 0), None (nothing) or a level in [0, 0.25) of full scale.
+        With interreflections=True "auto" measures nothing (bounced light reads as an
+        offset): give the level, which is taken off before the iteration.
 
     Writes normals.npy/png, albedo, confidence, depth.npy/png, mesh.ply, run.json,
     report.html into ``out``; returns what run.json holds (a dict).
