@@ -44,6 +44,7 @@
 use super::edges::View;
 use super::fit::{circle_sd, fit_robust, FitOptions};
 use super::Circle;
+use rayon::prelude::*;
 
 /// What the rim model found.
 #[derive(Clone, Debug)]
@@ -152,6 +153,9 @@ pub(crate) fn check(img: &View, circle: &Circle) -> Option<(f64, f64)> {
 struct Band {
     circle: Circle,
     sectors: Vec<Sector>,
+    /// Each pixel samples the scene at its centre: every sector's offsets are 0, and so
+    /// its footprint is the same in every sector.
+    point: bool,
 }
 
 /// One angular sector of the band.
@@ -219,6 +223,7 @@ impl Band {
         (sectors.len() >= 8).then_some(Band {
             circle: *circle,
             sectors,
+            point,
         })
     }
 
@@ -227,11 +232,15 @@ impl Band {
     fn best_sigma(&self, linear: bool) -> (f64, f64) {
         let total = |sigma: f64| -> f64 {
             let basis = Basis::new(sigma, linear);
-            self.sectors
-                .iter()
-                .step_by(2)
-                .map(|s| self.sector_fit(&basis, s).map_or(0.0, |f| f.1))
-                .sum()
+            let shared = self.shared_footprint(&basis);
+            // sectors fitted in parallel, summed in order (the same sum on any thread count)
+            let costs: Vec<f64> = (self.sectors.par_iter().step_by(2))
+                .map(|s| {
+                    self.sector_fit(&basis, shared.as_ref(), s)
+                        .map_or(0.0, |f| f.1)
+                })
+                .collect();
+            costs.iter().sum()
         };
         let sigma = golden(total, 0.0, 2.5, 10);
         (sigma, total(sigma))
@@ -241,14 +250,20 @@ impl Band {
     /// with the rim on the band's circle or (`free`) each sector's offset fitted.
     fn mean_square(&self, sigma: f64, free: bool) -> f64 {
         let basis = Basis::new(sigma, true);
+        let shared = self.shared_footprint(&basis);
         let (mut sum, mut n) = (0.0, 0usize);
         for s in &self.sectors {
-            let fixed = || {
-                let foot = Footprint::new(&basis, &s.offsets);
-                residual(&foot, &s.pixels, self.circle.radius)
+            let fixed = || match &shared {
+                Some(foot) => residual(foot, &s.pixels, self.circle.radius),
+                None => residual(
+                    &Footprint::new(&basis, &s.offsets),
+                    &s.pixels,
+                    self.circle.radius,
+                ),
             };
             let c = if free {
-                self.sector_fit(&basis, s).map_or_else(fixed, |f| f.1)
+                self.sector_fit(&basis, shared.as_ref(), s)
+                    .map_or_else(fixed, |f| f.1)
             } else {
                 fixed()
             };
@@ -267,11 +282,12 @@ impl Band {
     /// The sector points at blur `sigma`, fitted by the robust circle fit.
     fn fit_circle(&self, sigma: f64, linear: bool) -> Option<RimFit> {
         let basis = Basis::new(sigma, linear);
+        let shared = self.shared_footprint(&basis);
         let points: Vec<[f64; 2]> = self
             .sectors
-            .iter()
+            .par_iter()
             .filter_map(|s| {
-                let (e, _) = self.sector_fit(&basis, s)?;
+                let (e, _) = self.sector_fit(&basis, shared.as_ref(), s)?;
                 let rho = self.circle.radius + e;
                 Some([
                     self.circle.cx + rho * s.angle.cos(),
@@ -309,10 +325,30 @@ impl Band {
         })
     }
 
-    /// Offset e of the rim in one sector and the residual sum of squares there.
-    fn sector_fit(&self, basis: &Basis, sector: &Sector) -> Option<(f64, f64)> {
-        let table = Footprint::new(basis, &sector.offsets);
-        let cost = |e: f64| residual(&table, &sector.pixels, self.circle.radius + e);
+    /// The footprint that every sector shares when the band is point-sampled (built once
+    /// per blur instead of once per sector); `None` for an area footprint.
+    fn shared_footprint(&self, basis: &Basis) -> Option<Footprint> {
+        let first = self.sectors.first().filter(|_| self.point)?;
+        Some(Footprint::new(basis, &first.offsets))
+    }
+
+    /// Offset e of the rim in one sector and the residual sum of squares there, with the
+    /// band's `shared` footprint, or else the sector's own.
+    fn sector_fit(
+        &self,
+        basis: &Basis,
+        shared: Option<&Footprint>,
+        sector: &Sector,
+    ) -> Option<(f64, f64)> {
+        let own;
+        let table = match shared {
+            Some(foot) => foot,
+            None => {
+                own = Footprint::new(basis, &sector.offsets);
+                &own
+            }
+        };
+        let cost = |e: f64| residual(table, &sector.pixels, self.circle.radius + e);
         // coarse scan, then golden section around the best
         let step = 0.25;
         let n = (2.0 * E_MAX / step) as usize;
@@ -378,30 +414,29 @@ impl Footprint {
 /// Residual sum of squares (per pixel) of the linear least-squares fit of the profile
 /// model with the rim at radius `rho`.
 fn residual(foot: &Footprint, rows: &[SectorPixel], rho: f64) -> f64 {
-    let mut ata = [[0.0f64; 5]; 5];
-    let mut atb = [0.0f64; 5];
-    let mut btb = 0.0;
-    let mut n = 0usize;
-    let mut rows_used = Vec::with_capacity(rows.len());
-    for p in rows {
-        rows_used.push((foot.at(rho - p.d), p.value));
-        n += 1;
-    }
+    let n = rows.len();
     if n < 12 {
         return f64::INFINITY;
     }
     // centre the values for conditioning
-    let mean = rows_used.iter().map(|r| r.1).sum::<f64>() / n as f64;
-    for (v, y) in &rows_used {
-        let y = y - mean;
+    let mean = rows.iter().map(|p| p.value).sum::<f64>() / n as f64;
+    // AᵀA is symmetric: its upper triangle is accumulated and mirrored (the same products
+    // in the same order, so the same sums as the full square)
+    let mut ata = [[0.0f64; 5]; 5];
+    let mut atb = [0.0f64; 5];
+    let mut btb = 0.0;
+    for p in rows {
+        let v = foot.at(rho - p.d);
+        let y = p.value - mean;
         for i in 0..5 {
-            for j in 0..5 {
+            for j in i..5 {
                 ata[i][j] += v[i] * v[j];
             }
             atb[i] += v[i] * y;
         }
         btb += y * y;
     }
+    let ata = std::array::from_fn(|i| std::array::from_fn(|j| ata[i.min(j)][i.max(j)]));
     let Some(x) = solve5(ata, atb) else {
         return f64::INFINITY;
     };
