@@ -55,9 +55,22 @@ pub fn write_outputs_with(
     exports: &Exports,
 ) -> Result<Written> {
     let earlier = io::previous_run_files(out);
-    let mut files = write_maps(out, job, p)?;
-    files.extend(write_exports(out, job, p, exports)?);
-    if cfg!(feature = "report") {
+    let mut stages: Vec<(String, f64)> = extra_stages.to_vec();
+    stages.extend(p.stages.iter().cloned());
+    let mut summary = RunSummary::of(&titles.title, p, &stages);
+    // the report is built while the maps are written (it reads none of them, nor the
+    // list of files): two cores' worth of encoding
+    let (files, html) = rayon::join(
+        || -> Result<Vec<&'static str>> {
+            let mut files = write_maps(out, job, p)?;
+            files.extend(write_exports(out, job, p, exports)?);
+            Ok(files)
+        },
+        || report_html(titles, job, p, &summary),
+    );
+    let mut files = files?;
+    let html = html?;
+    if html.is_some() {
         files.push("report.html");
     }
     files.push("run.json");
@@ -65,26 +78,31 @@ pub fn write_outputs_with(
         .into_iter()
         .filter(|f| !files.contains(&f.as_str()))
         .collect();
-    let mut stages: Vec<(String, f64)> = extra_stages.to_vec();
-    stages.extend(p.stages.iter().cloned());
-    let summary = RunSummary {
-        files: files.iter().map(|f| f.to_string()).collect(),
-        stale_removed: stale.clone(),
-        ..RunSummary::of(&titles.title, p, &stages)
-    };
-    #[cfg(feature = "report")]
-    let report = {
-        let report = out.join("report.html");
-        let html = super::report_page::build_report(titles, job, p, &summary)?;
-        io::write_text(&report, &html)?;
-        report
-    };
+    summary.files = files.iter().map(|f| f.to_string()).collect();
+    summary.stale_removed = stale.clone();
     let json_path = out.join("run.json");
+    let report = match html {
+        Some(html) => {
+            let report = out.join("report.html");
+            io::write_text(&report, &html)?;
+            report
+        }
+        None => json_path.clone(),
+    };
     io::write_text(&json_path, &summary.to_json().to_string())?;
     io::remove_files(out, &stale)?;
-    #[cfg(not(feature = "report"))]
-    let report = json_path;
     Ok(Written { report, summary })
+}
+
+/// The text of `report.html` (`None` without the `report` feature).
+#[cfg(feature = "report")]
+fn report_html(titles: &Titles, job: &Job, p: &Output, s: &RunSummary) -> Result<Option<String>> {
+    super::report_page::build_report(titles, job, p, s).map(Some)
+}
+
+#[cfg(not(feature = "report"))]
+fn report_html(_: &Titles, _: &Job, _: &Output, _: &RunSummary) -> Result<Option<String>> {
+    Ok(None)
 }
 
 /// Write the maps, mesh and pictures of `p`; returns the names of the files written.
