@@ -393,8 +393,13 @@ pub fn interreflect<'py>(
     black_level: f32,
     full_scale: f32,
 ) -> PyResult<InterreflectOut<'py>> {
-    if let Err(e) = lamb::BlackLevelChoice::Given(black_level).check() {
-        return Err(value_error(format!("black_level={black_level}: {e}")));
+    // not measured here (bounced light reads as an offset): a level, or 0 for none
+    if lamb::BlackLevelChoice::Given(black_level).check().is_err() {
+        return Err(value_error(format!(
+            "black_level={black_level}: give the camera's black level in [0, {}) as a \
+             fraction of full scale (e.g. 0.03), or 0 for none",
+            lamb::MAX_BLACK_LEVEL
+        )));
     }
     let stack = convert::stack_from(&images, Vec::new())?;
     let lights = convert::lights_from(&lights)?;

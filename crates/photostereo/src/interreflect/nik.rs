@@ -103,6 +103,12 @@ pub fn solve(
     // bounced light is computed from the images as the radiance the facets send, which
     // does not include it
     let (level, mut ps_opts) = (opts.lambertian.black_level, opts.lambertian.clone());
+    if !(level.is_finite() && level >= 0.0) {
+        return Err(Error::invalid(
+            format!("black level {level} of the interreflection iteration"),
+            "give the camera's black level in image units (0 for none)",
+        ));
+    }
     let raw = if level == 0.0 {
         Cow::Borrowed(raw)
     } else {
@@ -475,6 +481,22 @@ mod tests {
         let (best, c) = choose_best(&[f32::NAN, 0.3, 0.2, 0.1], &[]);
         assert_eq!(best, 3);
         assert_eq!(c, Convergence::MaxIterations { oscillating: false });
+    }
+
+    #[test]
+    fn a_black_level_that_is_not_a_level_is_refused() {
+        let stack = ImageStack::zeros(8, 8, 3);
+        let lights =
+            Lights::from_directions(vec![[0.0, 0.0, 1.0], [0.5, 0.0, 0.8], [0.0, 0.5, 0.8]]);
+        for level in [f32::NAN, -0.01, f32::INFINITY] {
+            let mut opts = NikOptions::default();
+            opts.lambertian.black_level = level;
+            let err = solve(&stack, &Mask::full(8, 8), &lights, &opts, &NoProgress);
+            assert!(
+                matches!(err, Err(Error::InvalidInput { .. })),
+                "level {level}: {err:?}"
+            );
+        }
     }
 
     #[test]
