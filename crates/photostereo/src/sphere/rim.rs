@@ -621,6 +621,50 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_point_sampled_band_fits_alike_with_its_shared_footprint() {
+        // a bright disk of radius 30 sampled at pixel centres
+        let (w, c) = (80usize, 40.0);
+        let data: Vec<f32> = (0..w * w)
+            .map(|i| {
+                let (x, y) = ((i % w) as f64 + 0.5 - c, (i / w) as f64 + 0.5 - c);
+                if x.hypot(y) < 30.0 {
+                    0.8
+                } else {
+                    0.1
+                }
+            })
+            .collect();
+        let view = View {
+            width: w,
+            height: w,
+            data: &data,
+        };
+        let circle = Circle {
+            cx: c + 0.3,
+            cy: c - 0.2,
+            radius: 29.6,
+        };
+        let band = Band::new(&view, &circle, true).expect("band");
+        let basis = Basis::new(0.4, true);
+        let shared = band.shared_footprint(&basis).expect("point band shares");
+        let mut fitted = 0;
+        for s in &band.sectors {
+            let own = band.sector_fit(&basis, None, s);
+            assert_eq!(band.sector_fit(&basis, Some(&shared), s), own);
+            fitted += usize::from(own.is_some());
+        }
+        assert!(
+            fitted >= 8,
+            "{fitted} of {} sectors fitted",
+            band.sectors.len()
+        );
+        assert!(Band::new(&view, &circle, false)
+            .unwrap()
+            .shared_footprint(&basis)
+            .is_none());
+    }
+
+    #[test]
     fn blurred_basis_matches_quadrature() {
         // E[f(s + σZ)] by brute-force quadrature over z
         for &(s, sigma) in &[(-0.7, 0.6), (0.0, 0.8), (0.4, 0.5), (2.5, 1.2)] {
