@@ -79,7 +79,7 @@ pub fn write_outputs_with(
         .filter(|f| !files.contains(&f.as_str()))
         .collect();
     summary.files = files.iter().map(|f| f.to_string()).collect();
-    summary.stale_removed = stale.clone();
+    summary.stale_removed = stale;
     let json_path = out.join("run.json");
     let report = match html {
         Some(html) => {
@@ -90,7 +90,7 @@ pub fn write_outputs_with(
         None => json_path.clone(),
     };
     io::write_text(&json_path, &summary.to_json().to_string())?;
-    io::remove_files(out, &stale)?;
+    io::remove_files(out, &summary.stale_removed)?;
     Ok(Written { report, summary })
 }
 

@@ -45,6 +45,7 @@ use super::edges::View;
 use super::fit::{circle_sd, fit_robust, FitOptions};
 use super::Circle;
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// What the rim model found.
 #[derive(Clone, Debug)]
@@ -253,13 +254,9 @@ impl Band {
         let shared = self.shared_footprint(&basis);
         let (mut sum, mut n) = (0.0, 0usize);
         for s in &self.sectors {
-            let fixed = || match &shared {
-                Some(foot) => residual(foot, &s.pixels, self.circle.radius),
-                None => residual(
-                    &Footprint::new(&basis, &s.offsets),
-                    &s.pixels,
-                    self.circle.radius,
-                ),
+            let fixed = || {
+                let foot = footprint(&basis, shared.as_ref(), s);
+                residual(&foot, &s.pixels, self.circle.radius)
             };
             let c = if free {
                 self.sector_fit(&basis, shared.as_ref(), s)
@@ -340,15 +337,8 @@ impl Band {
         shared: Option<&Footprint>,
         sector: &Sector,
     ) -> Option<(f64, f64)> {
-        let own;
-        let table = match shared {
-            Some(foot) => foot,
-            None => {
-                own = Footprint::new(basis, &sector.offsets);
-                &own
-            }
-        };
-        let cost = |e: f64| residual(table, &sector.pixels, self.circle.radius + e);
+        let table = footprint(basis, shared, sector);
+        let cost = |e: f64| residual(&table, &sector.pixels, self.circle.radius + e);
         // coarse scan, then golden section around the best
         let step = 0.25;
         let n = (2.0 * E_MAX / step) as usize;
@@ -373,6 +363,7 @@ impl Band {
 
 /// The basis seen through a pixel of the sector: the mean over its 4 × 4 sub-pixel
 /// points, tabulated in s (the pixel centre's depth inside the rim).
+#[derive(Clone)]
 struct Footprint {
     table: Vec<[f64; 5]>,
 }
@@ -409,6 +400,18 @@ impl Footprint {
         let (a, b) = (self.table[i], self.table[i + 1]);
         std::array::from_fn(|k| a[k] + t * (b[k] - a[k]))
     }
+}
+
+/// The footprint of `sector`: the band's `shared` one, or else the sector's own.
+fn footprint<'a>(
+    basis: &Basis,
+    shared: Option<&'a Footprint>,
+    sector: &Sector,
+) -> Cow<'a, Footprint> {
+    shared.map_or_else(
+        || Cow::Owned(Footprint::new(basis, &sector.offsets)),
+        Cow::Borrowed,
+    )
 }
 
 /// Residual sum of squares (per pixel) of the linear least-squares fit of the profile
