@@ -182,8 +182,9 @@ def test_lambertian_black_level(cli, tmp_path):
         res = ps.lambertian(ds, black_level=level)
         errors[level] = angular_error_deg(res.normals, gt, ds.mask).mean()
     print(f"black level 3%, 8-bit: mean angular error {errors} deg")
-    # measured: auto 0.097, 0.0314 0.104, None 2.192 deg (as the CLI)
-    assert errors["auto"] < 0.2 and errors[0.0314] < 0.2 and errors[None] > 1.0, errors
+    # measured: auto 0.050 (0.097 before the level was measured again with itself taken
+    # off), 0.0314 0.104, None 2.192 deg (as the CLI)
+    assert errors["auto"] < 0.07 and errors[0.0314] < 0.2 and errors[None] > 1.0, errors
     auto = ps.lambertian(ds)  # "auto" is the default, as the CLI's
     want = np.load(tmp_path / "cli" / "normals.npy")
     assert np.nanmax(np.abs(auto.normals - want)) <= 1e-4
@@ -202,8 +203,8 @@ def test_run_black_level(cli, data, tmp_path):
         r = ps.run(d, tmp_path / f"o{level}", lambertian=True, black_level=level)
         errors[level] = r["angular_error_deg"]["mean"]
     print(f"run, black level 3%, 8-bit: mean angular error {errors} deg")
-    # as the CLI's test (tests/black_level_cli.rs): auto 0.097, none 2.192 deg
-    assert errors["auto"] < 0.2 and errors[None] > 1.0, errors
+    # as the CLI's test (tests/black_level_cli.rs): auto 0.051, none 2.192 deg
+    assert errors["auto"] < 0.07 and errors[None] > 1.0, errors
     # a level is for Lambertian photometric stereo: refused with a table, before reading
     with pytest.raises(ValueError, match="black level"):
         ps.run(data["blob"], tmp_path / "lut", sphere=data["sphere"], black_level=0.03)

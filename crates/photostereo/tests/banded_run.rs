@@ -169,11 +169,12 @@ fn a_black_level_measured_by_bands_is_that_of_the_in_memory_run() {
     let row = run.output.figures.iter().find(|r| r.name == "black level");
     let value = row.map(|r| r.value.clone()).unwrap_or_default();
     println!("black level 0.03, bands of 9 rows: {value}");
-    // measured: 0.0314 (standard error 2.0e-4), taken off (the estimate's bias on this
-    // vase is the one-call estimate's: the paths agree to the bit above)
+    // measured: 0.0301 (standard error 7.7e-5), taken off; 0.0314 (2.0e-4) before the
+    // level was measured again with itself taken off, one more pass over the bands (the
+    // paths agree to the bit above)
     let level: f32 = value.split(' ').next().unwrap().parse().unwrap();
     assert!(
-        (level - 0.03).abs() < 0.002 && value.ends_with("; taken off"),
+        (level - 0.03).abs() < 0.0005 && value.ends_with("; taken off"),
         "{value}"
     );
 }

@@ -249,6 +249,49 @@ fn a_black_level_is_measured_and_taken_off() {
 }
 
 #[test]
+fn a_black_level_is_measured_again_with_itself_taken_off() {
+    // a textured blob with cast shadows: where the albedo is low, a 3% offset lies above
+    // the shadow threshold (5% of the pixel's brightest sample), so the first measurement
+    // keeps shadowed samples (they read the offset) and comes out high; measured again on
+    // the images with it taken off, the shadows drop out
+    let opts = SceneOptions {
+        albedo_texture: true,
+        cast_shadows: true,
+        ..scene_options(ShapeKind::Blob, 128, Material::lambertian(0.8), 16)
+    };
+    let mut scene = render(&opts).unwrap();
+    let black = 0.03f32;
+    scene.stack.data.iter_mut().for_each(|v| *v += black);
+    let data = (&scene.stack, &scene.mask, &scene.lights);
+    let once = black_level_of(&scene);
+    let (out, d) =
+        solve_with_black_level(BlackLevelChoice::Auto, data, &Options::default(), 1.0).unwrap();
+    let with_once = Options {
+        black_level: once.value,
+        ..Options::default()
+    };
+    let e_once = mean_error(
+        &solve_scene(&scene, &with_once).normals,
+        &scene.normals,
+        &scene.mask,
+    );
+    let e = mean_error(&out.normals, &scene.normals, &scene.mask);
+    let found = d.measured.unwrap();
+    println!(
+        "textured blob, black level 0.03: measured once {:.5} ({e_once:.4}°), refined {:.6} \
+         (± {:.1e}; {e:.4}°)",
+        once.value, d.level, found.standard_error
+    );
+    // measured: once 0.03094 (0.0639°), refined 0.030000 (± 5e-10; 0.0000°)
+    assert!((once.value - black).abs() > 5e-4, "{once:?}");
+    assert!(
+        (d.level - black).abs() < 1e-4 && found.value == d.level,
+        "{d:?}"
+    );
+    assert!(e < 0.01 && e_once > 0.03, "{e} {e_once}");
+}
+
+#[test]
 fn a_black_level_under_a_ring_of_lights_is_not_identified() {
     // all lights 40° from the axis: l_z is the same for all, so an offset is a tilt of
     // every normal towards the view, and nothing in the data tells the two apart

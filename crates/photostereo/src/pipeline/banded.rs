@@ -569,7 +569,9 @@ fn lambertian_stages(
 
 /// The black level of [`Options::black_level`] in the capture's units (its full scale is
 /// the image scale): for `Auto`, measured by one pass over the bands that hold mask
-/// pixels ([`lambertian::BlackLevelSums`], the estimate of the whole stack).
+/// pixels ([`lambertian::BlackLevelSums`], the estimate of the whole stack), and when it
+/// is taken off, refined by one more pass per round ([`lambertian::refine_black_level`]),
+/// as the whole stack's solve does it.
 fn black_level(
     cap: &mut Capture,
     lights: &Lights,
@@ -583,12 +585,20 @@ fn black_level(
     if let Some(d) = Decision::without_measuring(opts.black_level, base, full_scale) {
         return Ok(d);
     }
-    let mut sums = lambertian::BlackLevelSums::new(lights, &opts.lambertian.for_black_level())?;
-    let need = |r0: usize, r1: usize| any_in(mask, r0, r1);
-    cap.pass("black level", p, need, |band, r0| {
-        sums.add(band, &rows_of(mask, r0, band.height))
-    })?;
-    Ok(Decision::from_measured(sums.finish(), base, full_scale))
+    let mut measure = |level: f32| {
+        let lo = lambertian::Options {
+            black_level: level,
+            ..opts.lambertian.clone()
+        };
+        let mut sums = lambertian::BlackLevelSums::new(lights, &lo.for_black_level())?;
+        let need = |r0: usize, r1: usize| any_in(mask, r0, r1);
+        cap.pass("black level", p, need, |band, r0| {
+            sums.add(band, &rows_of(mask, r0, band.height))
+        })?;
+        Ok((sums.finish(), ()))
+    };
+    let first = Decision::from_measured(measure(base)?.0, base, full_scale);
+    Ok(lambertian::refine_black_level(first, base, measure)?.0)
 }
 
 /// The Lambertian solve with `lo` band by band into H×W maps; each band also feeds the
