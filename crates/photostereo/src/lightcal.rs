@@ -12,6 +12,8 @@
 //! level (or ambient light) lifts every sample: the refits take off the level of the
 //! sphere's attached shadow (the median of the pixels the fit puts well into it), one
 //! level for all images (the median over the lights that shadow enough of the sphere).
+//! On quantised images that reading is the level rounded to a step; the lit pixels
+//! correct it by up to half a step (variable projection, `level_on_lit_pixels`).
 //!
 //! **Chrome sphere** ([`from_chrome_sphere`]). A mirror sphere shows each light as a
 //! small highlight where its normal bisects the view v = (0, 0, 1) and the light.
@@ -30,7 +32,7 @@ use crate::error::{Error, Result};
 use crate::image::{normalize, ImageStack, Lights};
 use crate::sphere::fit::{accumulate, solve3};
 use crate::sphere::Circle;
-use crate::stats::median;
+use crate::stats::{median, median_smallest_gap};
 
 /// Settings of [`from_matte_sphere`].
 #[derive(Clone, Debug)]
@@ -107,7 +109,11 @@ pub fn from_matte_sphere(
     for k in 0..stack.k {
         levels.extend(fit_matte_light(stack, &pixels, k, opts, None)?.1);
     }
-    let black = median(&mut levels).unwrap_or(0.0);
+    let measured = !levels.is_empty();
+    let mut black = median(&mut levels).unwrap_or(0.0);
+    if measured {
+        black = level_on_lit_pixels(stack, &pixels, opts, black)?;
+    }
     let mut directions = Vec::with_capacity(stack.k);
     let mut strengths = Vec::with_capacity(stack.k);
     for k in 0..stack.k {
@@ -266,6 +272,78 @@ fn shadow_level(
     }
     median(&mut dark).map(|m| m.max(0.0))
 }
+
+/// The shadow's level `black` corrected on the lit pixels, within half the images'
+/// quantisation step. Quantised, the shadow reads the level rounded to a step (a 3% level
+/// in 8 bits is 7.65 steps and the shadow reads 8), while the lit pixels read it on
+/// average: the lights fitted above the rounded level tilted by 0.059° on a 256² matte
+/// sphere, 0.0014° when the level is a whole number of steps. Every image k reads
+/// I = β + n·sₖ on its lit pixels; with each sₖ projected out (variable projection, as
+/// [`crate::lambertian::estimate_black_level`]: u = P⊥1 over the image's lit pixels),
+/// β − `black` = Σ⟨I − black, u⟩ / Σ⟨1, u⟩. The correction is kept within half a step
+/// of the shadow's level, which it can only be off by: on a sphere that is not quite
+/// Lambertian the lit pixels' model is not exact, and the shadow's reading stays the
+/// measurement. Images that are not quantised (no step found) keep the shadow's level.
+///
+/// Errors: as [`fit_matte_light`].
+fn level_on_lit_pixels(
+    stack: &ImageStack,
+    pixels: &[SpherePixel],
+    opts: &MatteOptions,
+    black: f32,
+) -> Result<f32> {
+    let step = quantisation_step(stack, pixels);
+    if step <= 0.0 {
+        return Ok(black);
+    }
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for k in 0..stack.k {
+        let (s, _) = fit_matte_light(stack, pixels, k, opts, Some(black))?;
+        let value = |p: &SpherePixel| stack.data[p.index * stack.k + k];
+        let pred = |p: &SpherePixel| dot(p.normal, s);
+        let top = pixels.iter().map(pred).fold(0.0, f64::max);
+        let cut = opts.shadow_fraction as f64 * top;
+        let lit: Vec<&SpherePixel> = (pixels.iter())
+            .filter(|p| value(p).is_finite() && value(p) < opts.saturation && pred(p) > cut)
+            .collect();
+        // c: the constant 1 fitted by normals over the lit pixels; u = 1 − n·c
+        let Some(c) = lsq_light(lit.iter().copied(), |_| 1.0) else {
+            continue;
+        };
+        for p in lit {
+            let u = 1.0 - dot(p.normal, c);
+            num += (value(p) - black) as f64 * u;
+            den += u;
+        }
+    }
+    let shift = if den > 0.0 { (num / den) as f32 } else { 0.0 };
+    let half = 0.5 * step;
+    Ok((black + shift.clamp(-half, half)).max(0.0))
+}
+
+/// The images' quantisation step over the sphere's pixels (the median over the images
+/// of the smallest gap between two distinct values); 0 when they are not quantised.
+fn quantisation_step(stack: &ImageStack, pixels: &[SpherePixel]) -> f32 {
+    let mut per_image: Vec<Vec<f32>> = (0..stack.k)
+        .map(|k| {
+            (pixels.iter())
+                .map(|p| stack.data[p.index * stack.k + k])
+                .filter(|v| v.is_finite())
+                .collect()
+        })
+        .collect();
+    let step = median_smallest_gap(per_image.iter_mut(), MIN_STEPS);
+    // floats: the smallest gap of a continuum is a rounding error, not a step
+    let top = (per_image.iter().flatten()).fold(0.0f32, |m, &v| m.max(v.abs()));
+    if step > top * 1e-6 {
+        step
+    } else {
+        0.0
+    }
+}
+
+/// Fewest distinct values of an image for its smallest gap to count as its step.
+const MIN_STEPS: usize = 8;
 
 /// Depth into the attached shadow (fraction of the fit's peak) of the pixels whose
 /// median is the shadow's level: away from the terminator, where blur and the fit's
