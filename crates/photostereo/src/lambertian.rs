@@ -33,7 +33,7 @@
 //! [`estimate_black_level`] measures it from the robust fits by variable projection
 //! (β is common to all pixels, each pixel's b is projected out; [`BlackLevelSums`] sums
 //! it over row bands of a capture too large to hold whole). A level that is taken off is
-//! measured again on the images with it taken off ([`refine_black_level`]): the first
+//! measured again on the images with it taken off ([`measure_black_level`]): the first
 //! measurement keeps shadowed samples, which read β itself, where β is above the shadow
 //! threshold, and comes out high (8-bit textured blob: 0.0313 for 0.0300). It cannot be measured
 //! when the lights lie on one cone about an axis (a ring at one elevation): the offset
@@ -54,9 +54,9 @@ use crate::sphere::fit::{accumulate, solve3};
 use rayon::prelude::*;
 
 mod black_level;
-use black_level::black_terms;
+pub(crate) use black_level::black_terms;
 pub use black_level::{
-    decide_black_level, estimate_black_level, refine_black_level, solve_with_black_level,
+    decide_black_level, estimate_black_level, measure_black_level, solve_with_black_level,
     BlackLevel, BlackLevelChoice, BlackLevelDecision, BlackLevelSums, LEVEL_TOLERANCE,
     MAX_BLACK_LEVEL, REFINE_ROUNDS,
 };

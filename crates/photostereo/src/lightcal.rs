@@ -48,6 +48,13 @@ pub struct MatteOptions {
     pub iterations: usize,
 }
 
+impl MatteOptions {
+    /// A sample the fit may use: finite and below saturation.
+    fn usable(&self, v: f32) -> bool {
+        v.is_finite() && v < self.saturation
+    }
+}
+
 impl Default for MatteOptions {
     fn default() -> Self {
         MatteOptions {
@@ -213,33 +220,27 @@ fn fit_matte_light(
     black: Option<f32>,
 ) -> Result<([f64; 3], Option<f32>)> {
     let value = |p: &SpherePixel| stack.data[p.index * stack.k + k];
-    let usable = |v: f32| v.is_finite() && v < opts.saturation;
     let peak = pixels
         .iter()
         .map(value)
-        .filter(|&v| usable(v))
+        .filter(|&v| opts.usable(v))
         .fold(0.0f32, f32::max);
     let first = opts.shadow_fraction * peak;
     let mut s = lsq_light(
         pixels
             .iter()
-            .filter(|p| usable(value(p)) && value(p) > first),
+            .filter(|p| opts.usable(value(p)) && value(p) > first),
         value,
     );
     let mut found = None;
     for _ in 0..opts.iterations {
         let Some(cur) = s else { break };
-        let pred = |p: &SpherePixel| dot(p.normal, cur);
-        let top = pixels.iter().map(pred).fold(0.0, f64::max);
-        let cut = opts.shadow_fraction as f64 * top;
+        let (top, lit) = lit_by(pixels, &value, cur, opts);
         if black.is_none() {
-            found = shadow_level(pixels, &value, &pred, top);
+            found = shadow_level(pixels, &value, &|p| dot(p.normal, cur), top);
         }
         let level = black.or(found).unwrap_or(0.0);
-        s = lsq_light(
-            pixels.iter().filter(|p| usable(value(p)) && pred(p) > cut),
-            |p| value(p) - level,
-        );
+        s = lsq_light(lit, |p| value(p) - level);
     }
     match s {
         Some(v) if dot(v, v) > 0.0 => Ok((v, found)),
@@ -300,25 +301,33 @@ fn level_on_lit_pixels(
     for k in 0..stack.k {
         let (s, _) = fit_matte_light(stack, pixels, k, opts, Some(black))?;
         let value = |p: &SpherePixel| stack.data[p.index * stack.k + k];
-        let pred = |p: &SpherePixel| dot(p.normal, s);
-        let top = pixels.iter().map(pred).fold(0.0, f64::max);
-        let cut = opts.shadow_fraction as f64 * top;
-        let lit: Vec<&SpherePixel> = (pixels.iter())
-            .filter(|p| value(p).is_finite() && value(p) < opts.saturation && pred(p) > cut)
-            .collect();
-        // c: the constant 1 fitted by normals over the lit pixels; u = 1 − n·c
-        let Some(c) = lsq_light(lit.iter().copied(), |_| 1.0) else {
-            continue;
-        };
-        for p in lit {
-            let u = 1.0 - dot(p.normal, c);
-            num += (value(p) - black) as f64 * u;
-            den += u;
-        }
+        let lit: Vec<&SpherePixel> = lit_by(pixels, &value, s, opts).1.collect();
+        // the normals play the lights' part of the Lambertian solve's terms
+        let normals: Vec<[f64; 3]> = lit.iter().map(|p| p.normal).collect();
+        let all: Vec<usize> = (0..lit.len()).collect();
+        let above = |i: usize| (value(lit[i]) - black) as f64;
+        let [n, d, _, _] = crate::lambertian::black_terms(&normals, &all, above, 0.0);
+        (num, den) = (num + n, den + d);
     }
     let shift = if den > 0.0 { (num / den) as f32 } else { 0.0 };
     let half = 0.5 * step;
     Ok((black + shift.clamp(-half, half)).max(0.0))
+}
+
+/// The pixels of one image (samples `value`) that the light `s` lights above
+/// `shadow_fraction` of its peak over the sphere, with a sample that is finite and below
+/// saturation; and that peak.
+fn lit_by<'a>(
+    pixels: &'a [SpherePixel],
+    value: &'a impl Fn(&SpherePixel) -> f32,
+    s: [f64; 3],
+    opts: &'a MatteOptions,
+) -> (f64, impl Iterator<Item = &'a SpherePixel>) {
+    let pred = move |p: &SpherePixel| dot(p.normal, s);
+    let top = pixels.iter().map(pred).fold(0.0, f64::max);
+    let cut = opts.shadow_fraction as f64 * top;
+    let lit = (pixels.iter()).filter(move |p| opts.usable(value(p)) && pred(p) > cut);
+    (top, lit)
 }
 
 /// The images' quantisation step over the sphere's pixels (the median over the images

@@ -205,7 +205,7 @@ fn real_objects_side_views_and_outline_steps() {
         // (not taken) / 0.1141 / 0.1080 of full scale (buddha, cat, owl, horse, rock; 2026-12-07).
         // Measured again with itself taken off, every correction here was upwards and, had it
         // been followed, climbed towards the largest level (cat 0.219, horse 0.247): the
-        // refinement only lowers a level (`lambertian::refine_black_level`)
+        // refinement only lowers a level (`lambertian::measure_black_level`)
         let level = (out.figures.iter())
             .find(|r| r.name == "black level")
             .and_then(|r| r.value.split(' ').next()?.parse::<f32>().ok())

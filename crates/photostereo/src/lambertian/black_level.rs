@@ -14,12 +14,12 @@ use crate::image::{ImageStack, Lights, Mask};
 /// the sensor's, and taking it off would darken real shading.
 pub const MAX_BLACK_LEVEL: f32 = 0.25;
 
-/// Most re-measurements of a level taken off ([`refine_black_level`]). Three were enough
+/// Most re-measurements of a level taken off ([`measure_black_level`]). Three were enough
 /// on every capture tried (8- and 16-bit blobs with cast shadows, 3% level).
 pub const REFINE_ROUNDS: usize = 4;
 
 /// A re-measured correction smaller than this fraction of full scale ends the
-/// refinement ([`refine_black_level`]): a fortieth of an 8-bit step. On the 8-bit blob
+/// refinement ([`measure_black_level`]): a fortieth of an 8-bit step. On the 8-bit blob
 /// of the module docs a level off by 0.8e-4 (what one more round would take off) moves the
 /// mean normal error by about 0.001°.
 pub const LEVEL_TOLERANCE: f32 = 1e-4;
@@ -170,9 +170,7 @@ pub fn decide_black_level(
     if let Some(d) = BlackLevelDecision::without_measuring(choice, base, full_scale) {
         return Ok(d);
     }
-    let measured = estimate_black_level(stack, mask, lights, &opts.for_black_level())?;
-    let first = BlackLevelDecision::from_measured(measured, base, full_scale);
-    let remeasure = |level: f32| {
+    let measure = |level: f32| {
         let o = Options {
             black_level: level,
             ..opts.clone()
@@ -182,41 +180,61 @@ pub fn decide_black_level(
             (),
         ))
     };
-    Ok(refine_black_level(first, base, remeasure)?.0)
+    Ok(measure_black_level(base, full_scale, measure)?.0)
 }
 
-/// The refinement of a measured level that is taken off: the level is measured again on
-/// the images with it taken off, and the correction found is added, until a correction
-/// does not lower the level by at least [`LEVEL_TOLERANCE`] of full scale (not added) or
-/// after [`REFINE_ROUNDS`].
+/// The level decided by [`BlackLevelChoice::Auto`] above `base` (the level already
+/// taken off; `full_scale` in image units): `measure(level)` measures the level above
+/// `level` in one pass over the images ([`estimate_black_level`]'s sums, whole or by
+/// bands) and returns what the caller keeps of that pass (the fits, for
+/// [`solve_with_black_level`]). A first pass at `base`; when its level is taken off
+/// ([`BlackLevelDecision::from_measured`]), the level is measured again on the images
+/// with it taken off, and the correction found is added, until a correction does not
+/// lower the level by at least [`LEVEL_TOLERANCE`] of full scale (not added) or after
+/// [`REFINE_ROUNDS`]. The decision's measurement is then the level found in total above
+/// `base`, re-decided by [`BlackLevel::is_taken`] with the standard error of the last
+/// pass that measured it. Returns the decision and what the pass at the decided level
+/// returned, when one was made there (always when no level is taken).
 ///
-/// Why: the first measurement selects each pixel's lit samples on the images as read,
-/// where the shadowed samples read the level itself. A 3% level lies above the shadow
-/// threshold (5% of a pixel's brightest sample) wherever the albedo is low, so samples in
-/// cast and attached shadow are kept as lit, and they pull the estimate up: 0.0313 of full
-/// scale for a true 0.0300 on an 8-bit blob with cast shadows (mean normal error 0.100°,
-/// against 0.051° without a level), 0.0310 in 16 bits. Once the level is off, those
-/// samples read about 0 and the selection drops them; the second measurement takes the
-/// bias off (8-bit: 0.0301, 0.051°; 16-bit: 0.0300, 0.000°; `synth --material lambertian
-/// --albedo-texture --black-level 0.03`, 256², then `normals --lambertian`).
+/// Why measure again: the first measurement selects each pixel's lit samples on the
+/// images as read, where the shadowed samples read the level itself. A 3% level lies
+/// above the shadow threshold (5% of a pixel's brightest sample) wherever the albedo is
+/// low, so samples in cast and attached shadow are kept as lit, and they pull the
+/// estimate up: 0.0313 of full scale for a true 0.0300 on an 8-bit blob with cast shadows
+/// (mean normal error 0.100°, against 0.051° without a level), 0.0310 in 16 bits. Once
+/// the level is off, those samples read about 0 and the selection drops them; the second
+/// measurement takes the bias off (8-bit: 0.0301, 0.051°; 16-bit: 0.0300, 0.000°; `synth
+/// --material lambertian --albedo-texture --black-level 0.03`, 256², then `normals
+/// --lambertian`).
 ///
-/// The refinement only lowers the level: the bias it takes off is upward, and a positive
-/// correction says that the images hold light the Lambertian model does not explain,
-/// which measuring again would keep taking off as if it were the camera's. On the real
-/// photographs of `../shared/data/real` (`run --chrome`), where the first measurement
-/// already finds 0.014–0.114 of full scale, every correction was positive and, followed,
-/// climbed towards the largest level allowed (cat 0.107 → 0.219, horse 0.114 → 0.247);
-/// those runs keep their first measurement. On the renders every correction was negative.
-///
-/// `measure(level)` measures the level above `level` and returns what the caller keeps
-/// of that pass (the fits, for [`solve_with_black_level`]). Returns the decision, with
-/// the level found in total above `base` as its measurement (re-decided by
-/// [`BlackLevel::is_taken`] with the standard error of the last pass that measured it),
-/// and what the last
-/// `measure` returned when the decision's level is the one it measured at.
+/// Why only downwards: the bias taken off is upward, and a positive correction says that
+/// the images hold light the Lambertian model does not explain, which measuring again
+/// would keep taking off as if it were the camera's. On the real photographs of
+/// `../shared/data/real` (`run --chrome`), where the first measurement already finds
+/// 0.014–0.114 of full scale, every correction was positive and, followed, climbed
+/// towards the largest level allowed (cat 0.107 → 0.219, horse 0.114 → 0.247); those
+/// runs keep their first measurement. On the renders every correction was negative.
 ///
 /// Errors: those of `measure`.
-pub fn refine_black_level<T>(
+pub fn measure_black_level<T>(
+    base: f32,
+    full_scale: f32,
+    mut measure: impl FnMut(f32) -> Result<(BlackLevel, T)>,
+) -> Result<(BlackLevelDecision, Option<T>)> {
+    let (measured, pass) = measure(base)?;
+    let first = BlackLevelDecision::from_measured(measured, base, full_scale);
+    if first.level == base {
+        return Ok((first, Some(pass)));
+    }
+    drop(pass); // before the refinement's own passes (the fits of a whole stack)
+    refine_black_level(first, base, measure)
+}
+
+/// The refinement of [`measure_black_level`] after its `first` decision: the rounds of
+/// measuring again, with what the pass at the decided level returned.
+///
+/// Errors: those of `measure`.
+fn refine_black_level<T>(
     first: BlackLevelDecision,
     base: f32,
     mut measure: impl FnMut(f32) -> Result<(BlackLevel, T)>,
@@ -294,14 +312,7 @@ pub fn solve_with_black_level(
         sums.add_fits(&fits);
         Ok((sums.finish(), fits))
     };
-    let base = opts.black_level;
-    let (measured, fits) = measure(base)?;
-    let decision = BlackLevelDecision::from_measured(measured, base, full_scale);
-    if decision.level == base {
-        return Ok((output(stack, &fits)?, decision));
-    }
-    drop(fits); // before the refinement's own fits
-    match refine_black_level(decision, base, measure)? {
+    match measure_black_level(opts.black_level, full_scale, measure)? {
         (decision, Some(fits)) => Ok((output(stack, &fits)?, decision)),
         (decision, None) => with_level(decision),
     }
@@ -411,7 +422,7 @@ impl BlackLevelSums {
 
 /// A pixel's terms of [`estimate_black_level`] over the samples `sel` with residual sum
 /// of squares `ss`: [Σ I·u, Σ u, ss, dof] (u = P⊥1; zeros with fewer than 4 samples).
-pub(super) fn black_terms(
+pub(crate) fn black_terms(
     eff: &[[f64; 3]],
     sel: &[usize],
     value: impl Fn(usize) -> f64,

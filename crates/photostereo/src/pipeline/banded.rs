@@ -570,7 +570,7 @@ fn lambertian_stages(
 /// The black level of [`Options::black_level`] in the capture's units (its full scale is
 /// the image scale): for `Auto`, measured by one pass over the bands that hold mask
 /// pixels ([`lambertian::BlackLevelSums`], the estimate of the whole stack), and when it
-/// is taken off, refined by one more pass per round ([`lambertian::refine_black_level`]),
+/// is taken off, refined by one more pass per round ([`lambertian::measure_black_level`]),
 /// as the whole stack's solve does it.
 fn black_level(
     cap: &mut Capture,
@@ -585,7 +585,7 @@ fn black_level(
     if let Some(d) = Decision::without_measuring(opts.black_level, base, full_scale) {
         return Ok(d);
     }
-    let mut measure = |level: f32| {
+    let measure = |level: f32| {
         let lo = lambertian::Options {
             black_level: level,
             ..opts.lambertian.clone()
@@ -597,8 +597,7 @@ fn black_level(
         })?;
         Ok((sums.finish(), ()))
     };
-    let first = Decision::from_measured(measure(base)?.0, base, full_scale);
-    Ok(lambertian::refine_black_level(first, base, measure)?.0)
+    Ok(lambertian::measure_black_level(base, full_scale, measure)?.0)
 }
 
 /// The Lambertian solve with `lo` band by band into H×W maps; each band also feeds the
