@@ -358,7 +358,14 @@ fn table_file_round_trips_and_rejects_damage() {
     t.names = (0..6).map(|i| format!("img{i}.png")).collect();
     t.material = "test plastic".into();
     let bytes = t.to_bytes();
+    assert!(t.rim_blur.is_some(), "the build measures the sphere's blur");
     assert_eq!(Table::from_bytes(&bytes).unwrap(), t);
+    // a table written before the blur was kept reads as "not measured"
+    let older = Table {
+        rim_blur: None,
+        ..t.clone()
+    };
+    assert_eq!(Table::from_bytes(&older.to_bytes()).unwrap().rim_blur, None);
     assert!(matches!(
         Table::from_bytes(&bytes[..bytes.len() - 4]),
         Err(Error::InvalidInput { .. })

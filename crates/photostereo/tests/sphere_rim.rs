@@ -228,3 +228,32 @@ fn all_defects_together_within_0_3_px() {
         "the uncertainty ({u:.3} px) must cover the error"
     );
 }
+
+#[test]
+fn the_blur_is_measured_at_a_given_circle() {
+    // `sphere::rim_blur`, which `lut::Table::build` keeps with the table: the optics'
+    // blur is found at the true circle, and a sharp render reads well under the
+    // spatial stage's threshold (`spatial::SHARP_OUTLINE_PX`, 0.35 px). Measured
+    // 2026-12-07: 0.010, 0.367, 0.793 (8-bit), 0.998 px for σ 0, 0.5, 0.8, 1 (the
+    // kernel of `gaussian_blur` sampled at σ 0.5 is narrower than the continuous one)
+    for (blur, eight_bit, tol) in [
+        (0.0, false, 0.05),
+        (0.5, false, 0.15),
+        (0.8, true, 0.05),
+        (1.0, false, 0.05),
+    ] {
+        let d = Defects {
+            blur,
+            eight_bit,
+            ..CLEAN
+        };
+        let found = photostereo::sphere::rim_blur(&render(&d, 3), &truth()).unwrap();
+        println!("blur σ {blur} (8-bit {eight_bit}): measured {found:.3} px");
+        assert!(
+            (found - blur).abs() < tol,
+            "blur {blur}: measured {found:.3}"
+        );
+    }
+    let empty = ImageStack::zeros(0, 0, 3);
+    assert!(photostereo::sphere::rim_blur(&empty, &truth()).is_none());
+}

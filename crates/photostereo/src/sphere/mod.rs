@@ -338,6 +338,46 @@ pub fn check_circle(stack: &ImageStack, circle: &Circle) -> Option<RimCheck> {
     })
 }
 
+/// The Gaussian blur (pixels, on top of each pixel's area) of the sphere's rim at
+/// `circle`: the rim model of step 7 (module docs) fitted on the maximum image around the
+/// circle, starting from it. `Some(0.0)` for a point-sampled render (no blur); `None`
+/// when the model does not fit (too little of the rim in the images, no contrast).
+/// [`crate::lut::Table::build`] keeps it with the table ([`crate::lut::Table::rim_blur`]).
+pub fn rim_blur(stack: &ImageStack, circle: &Circle) -> Option<f64> {
+    let finite = circle.cx.is_finite() && circle.cy.is_finite() && circle.radius.is_finite();
+    if stack.k == 0 || !finite {
+        return None;
+    }
+    // the rim model reads up to its band outside the rim plus its largest offset
+    let margin = 8.0;
+    let lo = |c: f64| (c - circle.radius - margin).floor().max(0.0) as usize;
+    let hi = |c: f64, n: usize| ((c + circle.radius + margin).ceil().max(0.0) as usize).min(n);
+    let (x0, y0) = (lo(circle.cx), lo(circle.cy));
+    let (x1, y1) = (hi(circle.cx, stack.width), hi(circle.cy, stack.height));
+    if x1 <= x0 || y1 <= y0 {
+        return None;
+    }
+    let (w, h) = (x1 - x0, y1 - y0);
+    let mut maxv = Vec::with_capacity(w * h);
+    for r in y0..y1 {
+        for c in x0..x1 {
+            maxv.push(stack.pixel(r, c).iter().fold(f32::MIN, |m, &v| m.max(v)));
+        }
+    }
+    let view = edges::View {
+        width: w,
+        height: h,
+        data: &maxv,
+    };
+    let init = Circle {
+        cx: circle.cx - x0 as f64,
+        cy: circle.cy - y0 as f64,
+        radius: circle.radius,
+    };
+    let fit = rim::refine(&view, init, true)?;
+    Some(if fit.point_sampled { 0.0 } else { fit.sigma_px })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

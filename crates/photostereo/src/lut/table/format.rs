@@ -12,7 +12,8 @@
 //! bytes 0..4    header length H, u32 little-endian
 //! bytes 4..4+H  UTF-8 JSON header: version, k, names (image names in light order),
 //!               circle {cx, cy, radius} (pixels, pixel (r, c) centre at (c+.5, r+.5)),
-//!               material, rim, smooth (blur applied, px),
+//!               material, rim, smooth (blur applied, px), rim_blur (the images'
+//!               blur measured on the rim, px; optional),
 //!               window {col0, row0, width, height}, sample_format
 //! then          width × height × k samples, f32 little-endian, pixel-major
 //!               (the sphere images on the window around the circle)
@@ -50,6 +51,9 @@ struct Header {
     rim: f64,
     #[serde(default)]
     smooth: f64,
+    /// Absent in files written before it was kept (read as not measured).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    rim_blur: Option<f64>,
     window: WindowJson,
     sample_format: String,
 }
@@ -155,6 +159,7 @@ pub fn encode_content(table: &Table) -> Vec<u8> {
         material: table.material.clone(),
         rim: table.rim,
         smooth: table.smooth,
+        rim_blur: table.rim_blur.filter(|b| b.is_finite()),
         window: WindowJson {
             col0: table.window.col0,
             row0: table.window.row0,
@@ -240,5 +245,6 @@ pub fn decode_content(bytes: &[u8]) -> Result<Table> {
     };
     let mut table = Table::from_parts(h.names, circle, h.material, h.rim, window)?;
     table.smooth = h.smooth;
+    table.rim_blur = h.rim_blur.filter(|b| b.is_finite() && *b >= 0.0);
     Ok(table)
 }

@@ -103,6 +103,12 @@ pub struct Table {
     pub rim: f64,
     /// Gaussian blur (pixels) applied to the sphere images when the table was built.
     pub smooth: f64,
+    /// The optical blur of the calibration images (pixels, Gaussian σ on top of each
+    /// pixel's area) measured on the sphere's rim at `circle` when the table was built
+    /// ([`crate::sphere::rim_blur`]); `None` when it could not be measured (or the table
+    /// was read from a file written before it was kept). The spatial stage trusts a
+    /// target's mask outline less when it is blurred (`spatial`, "Blurred outlines").
+    pub rim_blur: Option<f64>,
     /// Sphere images around the circle.
     pub window: Window,
     /// Discrete entries (tuples, normals, pixels).
@@ -179,6 +185,7 @@ impl Table {
             window,
         )?;
         table.smooth = smooth;
+        table.rim_blur = crate::sphere::rim_blur(stack, circle);
         Ok(table)
     }
 
@@ -240,6 +247,7 @@ impl Table {
             material,
             rim,
             smooth: 0.0,
+            rim_blur: None,
             window,
             entries,
         })
