@@ -114,6 +114,13 @@ fn conductor_with_one_percent_noise() {
     // the detector's maximum image under noise, left open (docs/accuracy.md).
     let case = develop_case(conductor(), camera(16, 0.0, 0.0), 0.01);
     check_within("Mitsuba aluminium 1% noise", &case, 1.8, [0.1, 0.2]);
+    // noise is not blur: the rim model fits only 63 of this rim's 105 sectors (at 1.06
+    // px), so no blur is reported and the outline keeps its weight
+    // (`spatial::outline_weight`); the same sphere blurred by 0.8 px reads about 0.75 px
+    assert_eq!(photostereo::sphere::rim_blur(&case.sphere, &CIRCLE), None);
+    let blurred = develop_case(conductor(), camera(8, 0.8, 0.03), 0.0);
+    let blur = photostereo::sphere::rim_blur(&blurred.sphere, &CIRCLE).unwrap();
+    assert!((blur - 0.8).abs() < 0.1, "blurred rim read {blur:.3} px");
 }
 
 #[test]
