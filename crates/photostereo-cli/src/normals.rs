@@ -191,6 +191,9 @@ fn lookup_normals(
     let mut out = normals::spatial_stage(stack, mask, &input, &normals_options(args), out)
         .context("spatial stage after the lookup")?;
     say_spatial(&out, mask, global);
+    if let (Some(_), [table], false) = (&out.spatial, &tables[..], global.quiet) {
+        say_outline_weight(table);
+    }
     let mut grays = spatial_grays(&mut out);
     let mixture = mixture_grays(&mut out, args, global);
     grays.extend(out.confidence.map(|c| ("confidence", c)));
@@ -201,6 +204,19 @@ fn lookup_normals(
         normals: out.normals,
         grays,
     })
+}
+
+/// One line when the sphere's rim was blurred enough for the spatial stage to weight the
+/// target's outline down (`spatial::outline_weight`).
+fn say_outline_weight(table: &Table) {
+    let weight = spatial::outline_weight(table.rim_blur);
+    if let (Some(blur), true) = (table.rim_blur, weight < 1.0) {
+        println!(
+            "the sphere's rim is blurred (σ {blur:.2} px, above {} px): the target's outline \
+             pixels count with weight {weight:.2} in the spatial stage",
+            spatial::SHARP_OUTLINE_PX
+        );
+    }
 }
 
 /// The lookup's options from the flags.
