@@ -92,6 +92,14 @@ impl Table {
         self.cal.table.entries.len()
     }
 
+    /// The optical blur of the sphere's images (px, Gaussian σ) measured on its rim when
+    /// the table was built; None where it could not be measured. Above 0.35 px the
+    /// spatial stage weights the target's outline down.
+    #[getter]
+    fn rim_blur(&self) -> Option<f64> {
+        self.cal.table.rim_blur
+    }
+
     /// RMS distance of the edge points to the fitted circle (px); None for a loaded table.
     #[getter]
     fn fit_rms(&self) -> Option<f64> {

@@ -95,6 +95,10 @@ class Table:
     def material(self) -> str:
         """Free-text material name."""
     @property
+    def rim_blur(self) -> Optional[float]:
+        """The optical blur (px, Gaussian sigma) measured on the sphere's rim; None if not measured.
+        Above 0.35 px the spatial stage weights the target's outline down."""
+    @property
     def fit_rms(self) -> Optional[float]:
         """RMS distance of the sphere's edge points to the circle (px); None for a loaded table."""
     def __len__(self) -> int:
