@@ -234,6 +234,9 @@ fn a_blurred_sphere_rim_weights_the_outline_and_says_so() {
     let (data, lut) = camera_dataset("blurred", "0.8");
     let blur = io::read_table(&lut).unwrap().rim_blur.unwrap();
     assert!((blur - 0.8).abs() < 0.15, "rim blur read {blur:.3} px");
+    let again = data.with_file_name("again.lut");
+    let said = photostereo(&["calibrate", s(&data.join("sphere")), "-o", s(&again)]);
+    assert!(said.contains("the images are blurred"), "{said}");
     let out = data.with_file_name("out");
     let said = photostereo(&["normals", s(&data), "--lut", s(&lut), "-o", s(&out)]);
     assert!(said.contains("the sphere's rim is blurred"), "{said}");
@@ -266,4 +269,7 @@ fn a_blurred_sphere_rim_weights_the_outline_and_says_so() {
     let out = data.with_file_name("out");
     let said = photostereo(&["normals", s(&data), "--lut", s(&lut), "-o", s(&out)]);
     assert!(!said.contains("rim is blurred"), "{said}");
+    let again = data.with_file_name("again.lut");
+    let said = photostereo(&["calibrate", s(&data.join("sphere")), "-o", s(&again)]);
+    assert!(!said.contains("the images are blurred"), "{said}");
 }
