@@ -230,7 +230,7 @@ fn a_blurred_sphere_rim_weights_the_outline_and_says_so() {
     // the table keeps the blur measured on the sphere's rim (`sphere::rim_blur`); above
     // 0.35 px the spatial stage weights the target's outline down and `normals` says so.
     // measured 2026-12-07: rim 0.74 px, default 0.150° (0.147° before the weight: on this
-    // small blob the outline is 5% of the mask, 3% on the 256² renders), --no-spatial 0.297°
+    // small blob the outline is 5.7% of the mask, 3% on the 256² renders), --no-spatial 0.297°
     let (data, lut) = camera_dataset("blurred", "0.8");
     let blur = io::read_table(&lut).unwrap().rim_blur.unwrap();
     assert!((blur - 0.8).abs() < 0.15, "rim blur read {blur:.3} px");
