@@ -176,8 +176,7 @@ fn describe_table(table: &Table, denoise: Denoise, say: &dyn Fn(String)) {
         "{:.1}% of the sphere's light is not Lambertian ({kind})",
         100.0 * share
     ));
-    let weight = photostereo::spatial::outline_weight(table.rim_blur);
-    if let (Some(blur), true) = (table.rim_blur, weight < 1.0) {
+    if let Some((blur, weight)) = photostereo::spatial::blurred_outline(table) {
         say(format!(
             "the images are blurred (σ {blur:.2} px on the sphere's rim, kept in the table): \
              a target's mask outline will count with weight {weight:.2} in the spatial stage"

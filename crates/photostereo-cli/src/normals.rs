@@ -209,8 +209,7 @@ fn lookup_normals(
 /// One line when the sphere's rim was blurred enough for the spatial stage to weight the
 /// target's outline down (`spatial::outline_weight`).
 fn say_outline_weight(table: &Table) {
-    let weight = spatial::outline_weight(table.rim_blur);
-    if let (Some(blur), true) = (table.rim_blur, weight < 1.0) {
+    if let Some((blur, weight)) = spatial::blurred_outline(table) {
         println!(
             "the sphere's rim is blurred (σ {blur:.2} px, above {} px): the target's outline \
              pixels count with weight {weight:.2} in the spatial stage",

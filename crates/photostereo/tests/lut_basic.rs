@@ -466,3 +466,41 @@ fn prepared_lookup_matches_one_shot_solve_for_every_target() {
         .unwrap();
     assert!(matches!(err, Error::TableMismatch { .. }), "{err}");
 }
+
+/// The table file with its JSON header's `rim_blur` value replaced by `value` (the content
+/// framed again, so that only the header is wrong).
+fn with_rim_blur(table: &Table, value: &str) -> Vec<u8> {
+    let content = lut::format::encode_content(table);
+    let hlen = u32::from_le_bytes(content[..4].try_into().unwrap()) as usize;
+    let header = std::str::from_utf8(&content[4..4 + hlen]).unwrap();
+    let at = header.find("\"rim_blur\":").unwrap() + "\"rim_blur\":".len();
+    let end = at + header[at..].find(',').unwrap();
+    let header = format!("{}{value}{}", &header[..at], &header[end..]);
+    let mut out = (header.len() as u32).to_le_bytes().to_vec();
+    out.extend_from_slice(header.as_bytes());
+    out.extend_from_slice(&content[4 + hlen..]);
+    lut::format::frame(&out)
+}
+
+#[test]
+fn a_bad_rim_blur_in_a_table_file_is_refused_or_left_out() {
+    let t = table(SHINY, 6, 0.0);
+    assert!(t.rim_blur.is_some());
+    let dir = common::temp_dir("lut-basic", "rim-blur");
+    // not a number: an error naming the file, what is wrong and the fix
+    let path = dir.join("wide.lut");
+    std::fs::write(&path, with_rim_blur(&t, "\"wide\"")).unwrap();
+    let err = photostereo::io::read_table(&path).unwrap_err().to_string();
+    for part in [
+        "wide.lut",
+        "bad header",
+        "\"wide\"",
+        "photostereo calibrate",
+    ] {
+        assert!(err.contains(part), "{part}: {err}");
+    }
+    // a negative blur is not a measurement: read as not measured
+    let path = dir.join("negative.lut");
+    std::fs::write(&path, with_rim_blur(&t, "-1.0")).unwrap();
+    assert_eq!(photostereo::io::read_table(&path).unwrap().rim_blur, None);
+}

@@ -161,6 +161,14 @@ pub fn outline_weight(blur: Option<f64>) -> f32 {
     }
 }
 
+/// The blur measured on `table`'s sphere and the weight it gives the mask's outline
+/// ([`outline_weight`]), where that weight is below 1; `None` for a sharp (or unmeasured)
+/// rim.
+pub fn blurred_outline(table: &Table) -> Option<(f64, f32)> {
+    let weight = outline_weight(table.rim_blur);
+    table.rim_blur.filter(|_| weight < 1.0).map(|b| (b, weight))
+}
+
 impl<'a> Reflectance<'a> {
     /// The table with its rim model (fitted as the lookup fits it: the same model the
     /// lookup extrapolated with) where the capture's noise floor σ(0) is below the
@@ -647,5 +655,21 @@ mod tests {
         assert!((outline_weight(Some(0.7)) - 0.25).abs() < 1e-6);
         assert!((outline_weight(Some(1.4)) - 0.0625).abs() < 1e-6);
         assert_eq!(outline_weight(Some(f64::NAN)), 1.0);
+    }
+
+    #[test]
+    fn a_blurred_outline_is_reported_only_below_full_weight() {
+        let circle = crate::sphere::Circle {
+            cx: 32.0,
+            cy: 32.0,
+            radius: 28.0,
+        };
+        let mut table =
+            crate::lut::table::test_sphere_table(64, circle, 3, |n, i| n[i].max(0.0) + 0.1);
+        for (blur, expected) in [(None, None), (Some(0.2), None), (Some(0.7), Some(0.25))] {
+            table.rim_blur = blur;
+            let got = blurred_outline(&table).map(|(b, w)| (b, (w * 100.0).round() / 100.0));
+            assert_eq!(got, expected.map(|w| (blur.unwrap(), w)), "blur {blur:?}");
+        }
     }
 }

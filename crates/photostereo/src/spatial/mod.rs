@@ -83,7 +83,9 @@ mod reject;
 pub mod roughness;
 mod solve;
 
-pub use info::{angular_sigma_deg, outline_weight, Evidence, MAX_SIGMA_DEG, SHARP_OUTLINE_PX};
+pub use info::{
+    angular_sigma_deg, blurred_outline, outline_weight, Evidence, MAX_SIGMA_DEG, SHARP_OUTLINE_PX,
+};
 pub use levels::{Censor, Levels};
 pub use noise::{NoiseModel, NoiseSampler};
 pub use reject::{
