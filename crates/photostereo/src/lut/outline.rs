@@ -21,7 +21,10 @@
 //! outline 2.36° → 0.03°, whole mask 0.061° → 0.012°; `target_roughplastic` 1.92° →
 //! 1.06°, 0.069° → 0.051° (`tests/lut_shared.rs`). Real masks drawn inside the
 //! silhouette keep their figures: the DiLiGenT ball at 0.75× 0.0735° either way (with a
-//! ratio of 1.5 instead of 3 it went to 0.0835°).
+//! ratio of 1.5 instead of 3 it went to 0.0835°). A mask through that ball's rim (every
+//! pixel whose centre is inside the circle) loses: its 230 outline pixels 1.22° → 2.25°,
+//! because there the tuple is not c·I(n̄) (docs/accuracy.md, "The DiLiGenT ball at 0.75×
+//! by resampler").
 
 use crate::image::Mask;
 
