@@ -125,3 +125,33 @@ pub fn check_within(name: &str, case: &Case, bound: f64, [centre, radius]: [f64;
     let dr = found.radius - c.radius;
     assert!(dr.abs() < radius, "{name}: radius off by {dr:+.3} px");
 }
+
+/// With `PHOTOSTEREO_EXPORT_CAMERA=DIR` set, write `case` as two datasets,
+/// `DIR/<slug>/sphere` and `DIR/<slug>/target` (16-bit PNGs named as the stack's images,
+/// the target's `mask.png` and `normal_gt.npy`), so that another build's CLI can be run
+/// on the very images a test scores (`calibrate DIR/<slug>/sphere`, `normals
+/// DIR/<slug>/target --lut …`, `eval`). 8-bit images are held exactly (k/255 is k·257 of
+/// 65535).
+pub fn export_if_asked(slug: &str, case: &Case) {
+    let Some(root) = std::env::var_os("PHOTOSTEREO_EXPORT_CAMERA") else {
+        return;
+    };
+    let dir = std::path::Path::new(&root).join(slug);
+    write_pngs(&dir.join("sphere"), &case.sphere);
+    let target = dir.join("target");
+    write_pngs(&target, &case.target);
+    photostereo::io::write_mask_png(&target.join("mask.png"), &case.mask).unwrap();
+    photostereo::io::write_normals(&target.join("normal_gt.npy"), &case.truth).unwrap();
+}
+
+fn write_pngs(dir: &std::path::Path, stack: &ImageStack) {
+    std::fs::create_dir_all(dir).unwrap();
+    for (i, name) in stack.names.iter().enumerate() {
+        let (w, h) = (stack.width as u32, stack.height as u32);
+        let img = image::ImageBuffer::from_fn(w, h, |c, r| {
+            let v = stack.pixel(r as usize, c as usize)[i];
+            image::Luma([(v.clamp(0.0, 1.0) * 65535.0).round() as u16])
+        });
+        img.save(dir.join(name)).unwrap();
+    }
+}
