@@ -94,15 +94,33 @@ pub const LOW_CONFIDENCE: f32 = 0.5;
 /// The warnings of a job: a lookup whose confidence is below [`LOW_CONFIDENCE`] over most
 /// of the mask (the sphere's intensities do not cover the target's), and interreflection
 /// removal on images whose radiance scale nobody gave.
-pub fn warnings(job: &Job, confidence: Option<&GrayImage>, opts: &super::Options) -> Vec<Warning> {
+///
+/// `confidence` is the estimate's (after the spatial stage, the lookup's times
+/// `own_share`); the warning is about the lookup's own matches, so the share is divided
+/// out again where it is given. The spatial stage deciding many pixels is a warning of
+/// its own (`checks::warnings`): on 8-bit rough metal it decides half the mask, and the
+/// product said "not to be trusted" of normals 0.36° off (2026-12-07).
+pub fn warnings(
+    job: &Job,
+    confidence: Option<&GrayImage>,
+    own_share: Option<&GrayImage>,
+    opts: &super::Options,
+) -> Vec<Warning> {
     let mut w = Vec::new();
     if let Some(c) = confidence {
-        let inside: Vec<f32> = c
-            .data
-            .iter()
+        let share = |i: usize| own_share.map_or(1.0, |s| s.data[i]);
+        let inside: Vec<f32> = (c.data.iter().enumerate())
             .zip(&job.mask.data)
             .filter(|(_, &m)| m)
-            .map(|(v, _)| if v.is_finite() { *v } else { 0.0 })
+            .map(|((i, &v), _)| {
+                let s = share(i);
+                let own = if s > 0.0 { v / s } else { v };
+                if own.is_finite() {
+                    own.min(1.0)
+                } else {
+                    0.0
+                }
+            })
             .collect();
         let low = inside.iter().filter(|&&v| v < LOW_CONFIDENCE).count();
         if !inside.is_empty() && 2 * low > inside.len() {

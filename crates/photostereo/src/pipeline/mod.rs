@@ -486,7 +486,8 @@ fn report_rows(job: &Job, opts: &Options, done: &Finished<'_>) -> (Vec<Figure>, 
     if let Some(c) = done.curvature {
         figures.push(figures::curvature_row(c));
     }
-    let mut warnings = figures::warnings(job, est.confidence.as_ref(), opts);
+    let own_share = est.spatial.as_ref().and_then(|s| s.own_share.as_ref());
+    let mut warnings = figures::warnings(job, est.confidence.as_ref(), own_share, opts);
     let stats = est.spatial.as_ref().and_then(|s| s.stats.as_ref());
     let (more, rows) = checks::warnings(job, done.circle, stats, opts);
     warnings.extend(more);
