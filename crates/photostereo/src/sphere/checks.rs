@@ -232,7 +232,9 @@ impl ShapeCheck {
 
 /// Follow `SHAPE_RAYS` rays from the detection's centre outward from half its radius
 /// to 1.5 radii; where each leaves the region (`mask` when given, else the pixels of
-/// the maximum image above [`lit_level`]), compare with the radius.
+/// the maximum image above a fifth of the median inside 0.8 radii or, where lower and
+/// the rim stands clear of the background, halfway between the two), compare with the
+/// radius.
 pub fn check_shape(det: &Detection, mask: Option<&Mask>) -> ShapeCheck {
     let c = det.circle;
     let img = &det.max_image;
