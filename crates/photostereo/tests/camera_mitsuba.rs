@@ -192,6 +192,7 @@ fn shared_plastic_8bit_blurred_with_black_level() {
     let Some(case) = shared_through(test, "roughplastic", camera(8, 0.8, 0.03), 0.0) else {
         return;
     };
+    export_if_asked("plastic_8bit_blurred", &case);
     check("Mitsuba plastic 8-bit blur 0.8 black 3%", &case, 0.16);
 }
 
@@ -253,6 +254,7 @@ fn shared_plastic_16_lights_blurred_with_black_level() {
     case.sphere = keep_lights(&case.sphere, &outer);
     case.target = keep_lights(&case.target, &outer);
     let case = develop_case(case, camera(8, 0.8, 0.03), 0.0);
+    export_if_asked("plastic_16_lights_8bit_blurred", &case);
     check(
         "Mitsuba plastic 16 lights, 8-bit blur 0.8 black 3%",
         &case,
