@@ -116,15 +116,7 @@ fn conductor_8bit_blurred_with_black_level() {
 fn conductor_16_lights_8bit() {
     // measured (true / found circle): peak default 0.346 / 0.342°, lookup 0.812 /
     // 0.812°; blurred + black level default 0.392 / 0.361°, lookup 0.903 / 0.911°
-    let outer: Vec<usize> = (4..20).collect();
-    let mut case = conductor();
-    case.sphere = keep_lights(&case.sphere, &outer);
-    case.target = keep_lights(&case.target, &outer);
-    let peak = |s: &ImageStack| s.data.iter().fold(0.0f32, |m, &v| m.max(v));
-    let gain = 1.0 / peak(&case.sphere).max(peak(&case.target));
-    for s in [&mut case.sphere, &mut case.target] {
-        s.data.iter_mut().for_each(|v| *v *= gain);
-    }
+    let case = conductor_16_lights();
     let sharp = develop_case(case.clone(), camera(8, 0.0, 0.0), 0.0);
     export_if_asked("aluminium_16_lights_8bit", &sharp);
     check("Mitsuba aluminium 16 lights 8-bit", &sharp, 0.40);
@@ -137,6 +129,35 @@ fn conductor_16_lights_8bit() {
     );
 }
 
+/// The aluminium with the 20° ring of lights dropped (issue 24's 16 lights), exposed for
+/// the peak of the 16.
+fn conductor_16_lights() -> Case {
+    let outer: Vec<usize> = (4..20).collect();
+    let mut case = conductor();
+    case.sphere = keep_lights(&case.sphere, &outer);
+    case.target = keep_lights(&case.target, &outer);
+    let peak = |s: &ImageStack| s.data.iter().fold(0.0f32, |m, &v| m.max(v));
+    let gain = 1.0 / peak(&case.sphere).max(peak(&case.target));
+    for s in [&mut case.sphere, &mut case.target] {
+        s.data.iter_mut().for_each(|v| *v *= gain);
+    }
+    case
+}
+
+/// 1% Gaussian noise, 16-bit, with the 16 lights. The build of 2026-12-03 gave 1.846°
+/// (default, circle found) on these images where issue 24 measured 2.79° on its hidden
+/// metal: that metal is 1.5× harder than ours at this noise (the Lambertian and plastic
+/// analogues: 1.03× and 1.10×), so main's 1.51° here stands for about 2.3° there, above
+/// the issue's 2.0° (docs/accuracy.md, "The camera cases against the build of
+/// 2026-12-03").
+#[test]
+fn conductor_16_lights_with_one_percent_noise() {
+    // measured (true / found circle): default 1.485 / 1.513°, lookup 8.76 / 8.75°
+    let case = develop_case(conductor_16_lights(), camera(16, 0.0, 0.0), 0.01);
+    export_if_asked("aluminium_16_lights_1pct_noise", &case);
+    check_within("Mitsuba aluminium 16 lights 1% noise", &case, 1.8, [0.1, 0.2]);
+}
+
 #[test]
 fn conductor_with_one_percent_noise() {
     // Gaussian noise of 1% of full scale on sphere and target, 16-bit. measured:
@@ -146,6 +167,7 @@ fn conductor_with_one_percent_noise() {
     // (+0.062 and +0.031 px with two others; at 2% noise no circle is found), a gap of
     // the detector's maximum image under noise, left open (docs/accuracy.md).
     let case = develop_case(conductor(), camera(16, 0.0, 0.0), 0.01);
+    export_if_asked("aluminium_1pct_noise", &case);
     check_within("Mitsuba aluminium 1% noise", &case, 1.8, [0.1, 0.2]);
     // noise is not blur: the rim model fits only 63 of this rim's 105 sectors (at 1.06
     // px), so no blur is reported and the outline keeps its weight
@@ -222,6 +244,7 @@ fn shared_lambertian_and_plastic_with_one_percent_noise() {
         let Some(case) = shared_through(test, material, camera(16, 0.0, 0.0), 0.01) else {
             return;
         };
+        export_if_asked(&format!("{material}_1pct_noise"), &case);
         check(&format!("Mitsuba {material} 1% noise"), &case, bound);
     }
 }
