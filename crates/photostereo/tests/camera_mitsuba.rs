@@ -155,7 +155,12 @@ fn conductor_16_lights_with_one_percent_noise() {
     // measured (true / found circle): default 1.485 / 1.513°, lookup 8.76 / 8.75°
     let case = develop_case(conductor_16_lights(), camera(16, 0.0, 0.0), 0.01);
     export_if_asked("aluminium_16_lights_1pct_noise", &case);
-    check_within("Mitsuba aluminium 16 lights 1% noise", &case, 1.8, [0.1, 0.2]);
+    check_within(
+        "Mitsuba aluminium 16 lights 1% noise",
+        &case,
+        1.8,
+        [0.1, 0.2],
+    );
 }
 
 #[test]
