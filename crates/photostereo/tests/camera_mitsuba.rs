@@ -114,8 +114,9 @@ fn conductor_8bit_blurred_with_black_level() {
 /// 2026-12-03").
 #[test]
 fn conductor_16_lights_8bit() {
-    // measured (true / found circle): peak default 0.346 / 0.342°, lookup 0.812 /
-    // 0.812°; blurred + black level default 0.392 / 0.361°, lookup 0.903 / 0.911°
+    // measured (true / found circle): peak default 0.341 / 0.338°, lookup 0.812 /
+    // 0.812°; blurred + black level default 0.382 / 0.331°, lookup 0.903 / 0.911°
+    // (0.346 / 0.342° and 0.392 / 0.361° with the prior's largest scale at 0.01)
     let case = conductor_16_lights();
     let sharp = develop_case(case.clone(), camera(8, 0.0, 0.0), 0.0);
     export_if_asked("aluminium_16_lights_8bit", &sharp);

@@ -69,8 +69,9 @@ fn diligent_ball_at_three_quarters_by_resampler() {
             rescale_tent(&ball.stack, &TRUTH, SCALE, size, 1.0 / SCALE),
         ),
     ];
-    // measured 2026-12-07: 0.0692°, 0.0740°, 0.0708° (the build of 2026-12-03, before
-    // issue 24's work: 0.0831°, 0.0991°, 0.0840°)
+    // measured 2026-12-07: 0.0688°, 0.0723°, 0.0706° (0.0692°, 0.0740°, 0.0708° with the
+    // spatial prior's largest scale at 0.01; the build of 2026-12-03, before issue 24's
+    // work: 0.0831°, 0.0991°, 0.0840°)
     for (name, stack) in &cases {
         let e = default_error(stack, &mask, &truth, &table);
         println!("DiLiGenT ball at 0.75x, {name}: default pipeline {e:.4} deg");
