@@ -294,18 +294,24 @@ fn lit_level(img: &GrayImage, c: &Circle) -> f32 {
     };
     let mut dev: Vec<f32> = back.iter().map(|v| (v - b).abs()).collect();
     let spread = median(&mut dev).unwrap_or(0.0);
-    if rim - b > 6.0 * spread && rim > b {
+    if rim - b > 6.0 * spread {
         interior.min(0.5 * (b + rim))
     } else {
         interior
     }
 }
 
-/// The maximum image's values at `lo`–`hi` radii from the circle's centre.
+/// The maximum image's values at `lo`–`hi` radii from the circle's centre, row by row
+/// (only the rows and columns of the ring's bounding box are visited).
 fn ring_values(img: &GrayImage, c: &Circle, lo: f64, hi: f64) -> Vec<f32> {
+    let reach = hi * c.radius + 1.0;
+    let span = |centre: f64, n: usize| {
+        let first = (centre - reach).floor().max(0.0) as usize;
+        first.min(n)..((centre + reach).ceil().max(0.0) as usize).min(n)
+    };
     let mut v: Vec<f32> = Vec::new();
-    for r in 0..img.height {
-        for col in 0..img.width {
+    for r in span(c.cy, img.height) {
+        for col in span(c.cx, img.width) {
             let (x, y) = (col as f64 + 0.5 - c.cx, r as f64 + 0.5 - c.cy);
             let rho = x.hypot(y) / c.radius;
             if (lo..hi).contains(&rho) {
