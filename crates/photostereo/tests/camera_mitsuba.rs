@@ -36,8 +36,6 @@ fn load(sphere_dir: &Path, target_dir: &Path) -> Case {
     let load = |d: &Path| io::load_dataset(d, &LoadOptions::default()).unwrap();
     let (sphere, target) = (load(sphere_dir), load(target_dir));
     let truth = io::read_normals_npy(&target_dir.join("normal_gt.npy")).unwrap();
-    let peak = |s: &ImageStack| s.data.iter().fold(0.0f32, |m, &v| m.max(v));
-    let gain = 1.0 / peak(&sphere.stack).max(peak(&target.stack));
     let mut case = Case {
         sphere: sphere.stack,
         truth_circle: CIRCLE,
@@ -45,10 +43,25 @@ fn load(sphere_dir: &Path, target_dir: &Path) -> Case {
         mask: target.mask.unwrap(),
         truth,
     };
+    expose_for_peak(&mut case);
+    case
+}
+
+/// Scale sphere and target together so that the brightest sample of the two is 1.
+fn expose_for_peak(case: &mut Case) {
+    let peak = |s: &ImageStack| s.data.iter().fold(0.0f32, |m, &v| m.max(v));
+    let gain = 1.0 / peak(&case.sphere).max(peak(&case.target));
     for s in [&mut case.sphere, &mut case.target] {
         s.data.iter_mut().for_each(|v| *v *= gain);
     }
-    case
+}
+
+/// Keep issue 24's 16 lights: these renders have 20 (rings of 4, 8, 8 at 20°, 40°,
+/// 60°), the 20° ring is dropped.
+fn drop_the_20_degree_ring(case: &mut Case) {
+    let outer: Vec<usize> = (4..20).collect();
+    case.sphere = keep_lights(&case.sphere, &outer);
+    case.target = keep_lights(&case.target, &outer);
 }
 
 fn conductor() -> Case {
@@ -133,15 +146,9 @@ fn conductor_16_lights_8bit() {
 /// The aluminium with the 20° ring of lights dropped (issue 24's 16 lights), exposed for
 /// the peak of the 16.
 fn conductor_16_lights() -> Case {
-    let outer: Vec<usize> = (4..20).collect();
     let mut case = conductor();
-    case.sphere = keep_lights(&case.sphere, &outer);
-    case.target = keep_lights(&case.target, &outer);
-    let peak = |s: &ImageStack| s.data.iter().fold(0.0f32, |m, &v| m.max(v));
-    let gain = 1.0 / peak(&case.sphere).max(peak(&case.target));
-    for s in [&mut case.sphere, &mut case.target] {
-        s.data.iter_mut().for_each(|v| *v *= gain);
-    }
+    drop_the_20_degree_ring(&mut case);
+    expose_for_peak(&mut case);
     case
 }
 
@@ -281,9 +288,7 @@ fn shared_plastic_16_lights_blurred_with_black_level() {
     let Some(mut case) = shared(test, "roughplastic") else {
         return;
     };
-    let outer: Vec<usize> = (4..20).collect();
-    case.sphere = keep_lights(&case.sphere, &outer);
-    case.target = keep_lights(&case.target, &outer);
+    drop_the_20_degree_ring(&mut case);
     let case = develop_case(case, camera(8, 0.8, 0.03), 0.0);
     export_if_asked("plastic_16_lights_8bit_blurred", &case);
     check(

@@ -4,35 +4,56 @@
 
 use photostereo::image::{ImageStack, Mask, NormalMap};
 use photostereo::sphere::Circle;
+use std::ops::Range;
 
 /// Resample `stack` by `s` about the circle centre into a `width` × `height` image whose
 /// pixel (r, c) covers the source box of side 1/s around (cx + (c + ½ − cx)/s, …),
 /// averaged exactly over the source pixels it overlaps (area averaging).
 pub fn rescale(stack: &ImageStack, c: &Circle, s: f64, width: usize, height: usize) -> ImageStack {
+    let half = 0.5 / s;
+    // the source pixels [i, i + 1) the box [x − half, x + half] overlaps, and by how much
+    let span = |x: f64, n: usize| {
+        ((x - half).floor().max(0.0) as usize)..((x + half).ceil() as usize).min(n)
+    };
+    let overlap =
+        |x: f64, i: usize| ((x + half).min(i as f64 + 1.0) - (x - half).max(i as f64)).max(0.0);
+    resample(stack, c, s, (width, height), span, overlap)
+}
+
+/// Resample `stack` by `s` about the circle centre with a separable filter: target pixel
+/// (r, c) sits at (x, y) = (cx + (c + ½ − cx)/s, cy + (r + ½ − cy)/s) in the source, and
+/// is the mean of the source pixels in `span(x, width)` × `span(y, height)` weighted by
+/// `weight(x, column) · weight(y, row)`.
+fn resample(
+    stack: &ImageStack,
+    c: &Circle,
+    s: f64,
+    (width, height): (usize, usize),
+    span: impl Fn(f64, usize) -> Range<usize>,
+    weight: impl Fn(f64, usize) -> f64,
+) -> ImageStack {
     let k = stack.k;
     let mut out = ImageStack::zeros(width, height, k);
     out.names = stack.names.clone();
-    let half = 0.5 / s;
     let mut acc = vec![0.0f64; k];
     for r in 0..height {
         for col in 0..width {
             let x = c.cx + (col as f64 + 0.5 - c.cx) / s;
             let y = c.cy + (r as f64 + 0.5 - c.cy) / s;
             acc.fill(0.0);
-            let mut area = 0.0;
-            let (x0, x1, y0, y1) = (x - half, x + half, y - half, y + half);
-            for sr in (y0.floor().max(0.0) as usize)..(y1.ceil() as usize).min(stack.height) {
-                let wy = (y1.min(sr as f64 + 1.0) - y0.max(sr as f64)).max(0.0);
-                for sc in (x0.floor().max(0.0) as usize)..(x1.ceil() as usize).min(stack.width) {
-                    let wx = (x1.min(sc as f64 + 1.0) - x0.max(sc as f64)).max(0.0);
+            let mut total = 0.0;
+            for sr in span(y, stack.height) {
+                let wy = weight(y, sr);
+                for sc in span(x, stack.width) {
+                    let wt = weight(x, sc) * wy;
                     for (a, v) in acc.iter_mut().zip(stack.pixel(sr, sc)) {
-                        *a += wx * wy * *v as f64;
+                        *a += wt * *v as f64;
                     }
-                    area += wx * wy;
+                    total += wt;
                 }
             }
             for (d, a) in out.pixel_flat_mut(r * width + col).iter_mut().zip(&acc) {
-                *d = (a / area.max(1e-12)) as f32;
+                *d = (a / total.max(1e-12)) as f32;
             }
         }
     }
@@ -70,40 +91,15 @@ pub fn rescale_tent(
     stack: &ImageStack,
     c: &Circle,
     s: f64,
-    (width, height): (usize, usize),
+    size: (usize, usize),
     support: f64,
 ) -> ImageStack {
-    let k = stack.k;
-    let mut out = ImageStack::zeros(width, height, k);
-    out.names = stack.names.clone();
-    let tent = |d: f64| (1.0 - d.abs() / support).max(0.0);
     // the source pixels (index i, centre i + ½) within `support` of x
     let span = |x: f64, n: usize| {
         let lo = (x - support - 0.5).ceil().max(0.0) as usize;
         let hi = ((x + support - 0.5).floor().max(-1.0) + 1.0) as usize;
         lo..hi.min(n)
     };
-    let mut acc = vec![0.0f64; k];
-    for r in 0..height {
-        for col in 0..width {
-            let x = c.cx + (col as f64 + 0.5 - c.cx) / s;
-            let y = c.cy + (r as f64 + 0.5 - c.cy) / s;
-            acc.fill(0.0);
-            let mut total = 0.0;
-            for sr in span(y, stack.height) {
-                let wy = tent(sr as f64 + 0.5 - y);
-                for sc in span(x, stack.width) {
-                    let wt = wy * tent(sc as f64 + 0.5 - x);
-                    for (a, v) in acc.iter_mut().zip(stack.pixel(sr, sc)) {
-                        *a += wt * *v as f64;
-                    }
-                    total += wt;
-                }
-            }
-            for (d, a) in out.pixel_flat_mut(r * width + col).iter_mut().zip(&acc) {
-                *d = (a / total.max(1e-12)) as f32;
-            }
-        }
-    }
-    out
+    let tent = |x: f64, i: usize| (1.0 - (i as f64 + 0.5 - x).abs() / support).max(0.0);
+    resample(stack, c, s, size, span, tent)
 }
