@@ -91,7 +91,8 @@ fn develop_case(mut case: Case, camera: Camera, noise: f32) -> Case {
     case
 }
 
-// Measured 2026-12-06 (true circle / circle found). Issue 24's targets for its hidden
+// Measured 2026-12-06 (true circle / circle found); the aluminium's defaults again on
+// 2026-12-07, after the contour prior's tilt went from 0.98 ± 0.03 to 0.995 ± 0.01. Issue 24's targets for its hidden
 // rough aluminium: clean 16-bit < 0.15°, 8-bit < 1.0°, 8-bit blurred with a black level
 // < 1.2°, 1% noise < 2.0°, sphere at half size < 0.30°.
 
@@ -103,7 +104,8 @@ fn conductor_16bit() {
 
 #[test]
 fn conductor_8bit_exposed_for_its_peak() {
-    // measured: nearest 1.167 / 1.168°, lookup 0.751 / 0.752°, default 0.341 / 0.337°
+    // measured: nearest 1.167 / 1.168°, lookup 0.751 / 0.752°, default 0.314 / 0.313°
+    // (0.341 / 0.337° with the contour's tilt at 0.98 ± 0.03)
     let case = develop_case(conductor(), camera(8, 0.0, 0.0), 0.0);
     export_if_asked("aluminium_8bit", &case);
     check("Mitsuba aluminium 8-bit", &case, 0.45);
@@ -111,8 +113,8 @@ fn conductor_8bit_exposed_for_its_peak() {
 
 #[test]
 fn conductor_8bit_blurred_with_black_level() {
-    // measured: nearest 1.082 / 1.056°, lookup 0.894 / 0.875°, default 0.343 / 0.340°
-    // (0.468 / 0.473° before the outline's evidence was weighted by the sphere's measured
+    // measured: nearest 1.082 / 1.056°, lookup 0.894 / 0.875°, default 0.292 / 0.286°
+    // (0.343 / 0.340° with the contour's tilt at 0.98 ± 0.03; 0.468 / 0.473° before the outline's evidence was weighted by the sphere's measured
     // blur, 2026-12-07); circle found 0.002 px off centre, radius −0.102 px
     let case = develop_case(conductor(), camera(8, 0.8, 0.03), 0.0);
     export_if_asked("aluminium_8bit_blurred", &case);
@@ -127,9 +129,10 @@ fn conductor_8bit_blurred_with_black_level() {
 /// 2026-12-03").
 #[test]
 fn conductor_16_lights_8bit() {
-    // measured (true / found circle): peak default 0.341 / 0.338°, lookup 0.812 /
-    // 0.812°; blurred + black level default 0.382 / 0.331°, lookup 0.903 / 0.911°
-    // (0.346 / 0.342° and 0.392 / 0.361° with the prior's largest scale at 0.01)
+    // measured (true / found circle): peak default 0.307 / 0.304°, lookup 0.812 /
+    // 0.812°; blurred + black level default 0.303 / 0.286°, lookup 0.903 / 0.911°
+    // (0.341 / 0.338° and 0.382 / 0.331° with the contour's tilt at 0.98 ± 0.03;
+    // 0.346 / 0.342° and 0.392 / 0.361° with the prior's largest scale at 0.01 too)
     let case = conductor_16_lights();
     let sharp = develop_case(case.clone(), camera(8, 0.0, 0.0), 0.0);
     export_if_asked("aluminium_16_lights_8bit", &sharp);
@@ -157,18 +160,20 @@ fn conductor_16_lights() -> Case {
 /// metal: that metal is 1.5× harder than ours at this noise (the Lambertian and plastic
 /// analogues: 1.03× and 1.10×), so main's 1.51° here stood for about 2.3° there, above
 /// the issue's 2.0°, and 1.32° since the prior's largest scale went from 0.01 to 0.005
-/// for about 2.0° (docs/accuracy.md, "The camera cases against the build of
-/// 2026-12-03").
+/// for about 2.0°, and 0.95° since the contour's tilt went to 0.995 ± 0.01 for about
+/// 1.4° (docs/accuracy.md, "The camera cases against the build of 2026-12-03", "The
+/// contour's tilt").
 #[test]
 fn conductor_16_lights_with_one_percent_noise() {
-    // measured (true / found circle): default 1.285 / 1.322° (1.485 / 1.513° with the
-    // prior's largest scale at 0.01), lookup 8.76 / 8.75°
+    // measured (true / found circle): default 0.932 / 0.951° (1.285 / 1.322° with the
+    // contour's tilt at 0.98 ± 0.03, 1.485 / 1.513° with the prior's largest scale at
+    // 0.01 too), lookup 8.76 / 8.75°
     let case = develop_case(conductor_16_lights(), camera(16, 0.0, 0.0), 0.01);
     export_if_asked("aluminium_16_lights_1pct_noise", &case);
     check_within(
         "Mitsuba aluminium 16 lights 1% noise",
         &case,
-        1.8,
+        1.2,
         [0.1, 0.2],
     );
 }
@@ -176,14 +181,16 @@ fn conductor_16_lights_with_one_percent_noise() {
 #[test]
 fn conductor_with_one_percent_noise() {
     // Gaussian noise of 1% of full scale on sphere and target, 16-bit. measured:
-    // nearest 9.32 / 9.31°, lookup 8.63 / 8.64°, default 1.548 / 1.509°.
+    // nearest 9.32 / 9.31°, lookup 8.63 / 8.64°, default 0.907 / 0.902° (1.548 /
+    // 1.509° with the contour's tilt at 0.98 ± 0.03 and the prior's largest scale at
+    // 0.01).
     // The circle is checked within 0.2 px, not the 0.15 px issue 24 asks on its blurred
     // 8-bit spheres: on this noisy rim the radius found is −0.166 px with this seed
     // (+0.062 and +0.031 px with two others; at 2% noise no circle is found), a gap of
     // the detector's maximum image under noise, left open (docs/accuracy.md).
     let case = develop_case(conductor(), camera(16, 0.0, 0.0), 0.01);
     export_if_asked("aluminium_1pct_noise", &case);
-    check_within("Mitsuba aluminium 1% noise", &case, 1.8, [0.1, 0.2]);
+    check_within("Mitsuba aluminium 1% noise", &case, 1.2, [0.1, 0.2]);
     // noise is not blur: the rim model fits only 63 of this rim's 105 sectors (at 1.06
     // px), so no blur is reported and the outline keeps its weight
     // (`spatial::outline_weight`); the same sphere blurred by 0.8 px reads about 0.75 px
@@ -198,11 +205,13 @@ fn conductor_with_two_percent_noise() {
     // Gaussian noise of 2% of full scale: the maximum over 20 noisy images lifts the
     // background to the metal rim's level; the circle is found in the blurred mean image
     // (step 6c, "faint disk under noise"; before it, no circle was found). measured:
-    // nearest 18.31 / 18.31°, lookup 17.39 / 17.41°, default 2.613 / 2.818°; circle
+    // nearest 18.31 / 18.31°, lookup 17.39 / 17.41°, default 1.729 / 1.943° (2.613 /
+    // 2.818° with the contour's tilt at 0.98 ± 0.03 and the prior's largest scale at
+    // 0.01); circle
     // 0.098 px off centre, radius +0.164 px (five seeds: centre 0.07–0.30 px, radius
     // −0.34 to +0.16 px, hence the looser circle bounds; at 3% noise none is found).
     let case = develop_case(conductor(), camera(16, 0.0, 0.0), 0.02);
-    check_within("Mitsuba aluminium 2% noise", &case, 3.0, [0.3, 0.4]);
+    check_within("Mitsuba aluminium 2% noise", &case, 2.5, [0.3, 0.4]);
 }
 
 #[test]

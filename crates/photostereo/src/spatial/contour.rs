@@ -1,27 +1,39 @@
 //! The mask's edge as an occluding contour: there the surface turns away from the camera
 //! and its normal is the outward normal of the silhouette, n = (m_x, m_y, 0) (Ikeuchi &
 //! Horn, "Numerical shape from shading and occluding boundaries", AI 17, 1981). At a
-//! pixel centre half a pixel inside, (n_x, n_y) ≈ 0.98·m. The outward direction m is the
+//! pixel centre half a pixel inside, (n_x, n_y) ≈ 0.995·m. The outward direction m is the
 //! negated gradient of the mask smoothed by a Gaussian of 2 px (camera frame: y up).
 //! Pixels on the image border are not contour pixels (the object may continue).
 //!
 //! The prior is anisotropic. Along the contour's tangent t the normal's component is 0
 //! whatever the surface's curvature, so it is held tightly (σ given). The tilt along m is
 //! not: a pixel centre d px inside the silhouette of a surface with radius of curvature R
-//! has |(n_x, n_y)| ≈ 1 − d/R, between 0.96 and 0.999 for the usual d ∈ (0, 1), R ≥ 25 px;
-//! a tight tilt of 0.98 pulled edge pixels 2.5–4° off the truth of a noisy sphere
-//! (1.96° → 3.31°), so the tilt gets its own σ [`TILT_SIGMA`] = 0.03, about the spread
-//! of that range. A looser 0.1 let the dark rim of a rough metal drift: on the project's
-//! GGX blob with 1% noise (`noise_sweep one metal 0.01`) 0.03 takes the mean error from
-//! 1.76° to 1.5° (with 8 passes, 1.4°), while the noisy sphere's edge pixels move from
-//! 1.71° to 1.73° and 0.02 would cost them 0.13° (`contour_cli`).
+//! (across the contour) has |(n_x, n_y)| ≈ 1 − d/R. With d spread over (0, 1) (mean ½)
+//! that is 0.995 for R = 100 px, 0.99 for 50 px and 0.98 for 25 px, so the tilt is held
+//! at [`RIM_TILT`] = 0.995 with its own σ [`TILT_SIGMA`] = 0.01.
+//!
+//! Why these: the prior decides the rim wherever the data are dark there (a rough metal
+//! lit from within 60° of the view). Measured 2026-12-07 (`normals`, circle found, the
+//! prior's largest scale 0.005): with 0.98 ± 0.03 the dark rim of Mitsuba's aluminium
+//! blob with 1% noise came out 0.03 short of the truth's 0.994 on its edge pixels, 8.8°
+//! off, and tilted inward over 16 px (mean 1.32°); with 0.995 ± 0.01, 2.5° on the edge
+//! and 0.95° over the mask. Every metal case measured gained: own GGX blob with 1% noise
+//! at 128, 256 and 512 px 1.34 / 1.21 / 1.37° → 0.82 / 0.85 / 1.14°, a sphere of radius
+//! 43 with 1% noise 1.58° → 0.81°, the vase 0.66° → 0.49°, 8-bit aluminium 0.32–0.34°
+//! → 0.29–0.30°. Plastic and Lambertian renders moved by less than 0.005°, but for a
+//! plastic sphere of radius 43 with 2% noise, 0.414° → 0.401°. The one loss: DiLiGenT's
+//! ball at 0.75× through an 8-bit camera, 1–4% (0.227° → 0.235° at its plain exposure;
+//! `lut_camera_ball`), monotonic in how tight the prior is. 0.99 ± 0.01 and
+//! 0.998 ± 0.01 were within 10% of 0.995 ± 0.01 on every render; ± 0.005 gained on the
+//! Mitsuba metal and lost on the small sphere, the small blob and the vase; ± 0.02 gave
+//! back a third of the gain (docs/accuracy.md, "The contour's tilt").
 
 use crate::image::Mask;
 
 /// |(n_x, n_y)| assumed at a contour pixel's centre.
-const RIM_TILT: f32 = 0.98;
+const RIM_TILT: f32 = 0.995;
 /// Standard error (unit-normal components) of the prior's tilt along the outward direction.
-const TILT_SIGMA: f32 = 0.03;
+const TILT_SIGMA: f32 = 0.01;
 /// Standard deviation (pixels) of the smoothing of the mask.
 const SMOOTH: f32 = 2.0;
 
