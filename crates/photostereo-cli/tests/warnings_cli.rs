@@ -281,15 +281,25 @@ fn a_target_as_sphere_and_a_matte_chrome_sphere_warn() {
 /// mask: its rim is dark under every light (a few grey levels), so the lit region ends
 /// well inside the circle; that rim is still brighter than the background, and the
 /// sphere is not called "not a sphere" (it was, in every direction: median gap 30.6 px,
-/// 2026-12-07). Blurred with a black level too; the vase given as the sphere still warns.
+/// 2026-12-07). Blurred with a black level too, and in 16 bits with 1% noise; the vase
+/// given as the sphere still warns.
 #[test]
-fn an_8bit_metal_sphere_without_a_mask_is_a_sphere() {
+fn a_dark_rimmed_metal_sphere_without_a_mask_is_a_sphere() {
     let root = tmp("metal-8bit");
-    let camera: [&[&str]; 2] = [&[], &["--blur", "0.8", "--black-level", "0.03"]];
+    let peak_8bit = ["--bits", "8", "--exposure", "peak"];
+    let blurred = ["--blur", "0.8", "--black-level", "0.03"];
+    // 1% noise: the maximum of the noisy images lifts the background to 2.3 deviations
+    // below the rim, and the sphere was "not a sphere" in 100% of the directions
+    // (median gap 31.6 px) before the smoothing of `sphere::checks` (now 4%)
+    let camera: [Vec<&str>; 3] = [
+        peak_8bit.to_vec(),
+        [&peak_8bit[..], &blurred[..]].concat(),
+        vec!["--noise", "0.01"],
+    ];
     for (i, extra) in camera.iter().enumerate() {
         let sphere = root.join(format!("sphere{i}"));
         let mut args = vec!["-q", "synth", "--shape", "sphere", "--size", "256"];
-        args.extend_from_slice(&["--material", "metal", "--bits", "8", "--exposure", "peak"]);
+        args.extend_from_slice(&["--material", "metal"]);
         args.extend_from_slice(extra);
         args.extend_from_slice(&["-o", s(&sphere)]);
         photostereo_ok(&args);
@@ -298,16 +308,31 @@ fn an_8bit_metal_sphere_without_a_mask_is_a_sphere() {
         let (ok, stdout, stderr) = photostereo(&["calibrate", s(&sphere), "-o", s(&table)]);
         let text = stdout + &stderr;
         assert!(ok, "{text}");
-        assert!(
-            text.contains("outline of the lit region off the circle in 0%"),
-            "{text}"
-        );
+        // measured: 0%, 0% and 4% of the directions
+        let off = off_circle_percent(&text);
+        assert!(off <= if i < 2 { 0.0 } else { 5.0 }, "{off}%: {text}");
         assert!(!text.contains("this is not a sphere"), "{text}");
     }
     let (vase, _, _) = data(&root.join("vase"));
     let _ = std::fs::remove_file(vase.join("mask.png"));
     let (_, _, stderr) = photostereo(&["calibrate", s(&vase), "-o", s(&root.join("vase.lut"))]);
     assert!(stderr.contains("this is not a sphere"), "{stderr}");
+}
+
+/// The percentage in `calibrate`'s "outline of the lit region off the circle in N%".
+fn off_circle_percent(text: &str) -> f64 {
+    let key = "outline of the lit region off the circle in ";
+    let at = text
+        .find(key)
+        .unwrap_or_else(|| panic!("no shape check in {text}"))
+        + key.len();
+    let digits: String = text[at..]
+        .chars()
+        .take_while(char::is_ascii_digit)
+        .collect();
+    digits
+        .parse()
+        .unwrap_or_else(|_| panic!("no percentage in {text}"))
 }
 
 /// `run` on a rough metal blob through an 8-bit camera (blur 0.8 px, black level 3%)
