@@ -224,6 +224,7 @@ fn conductor_sphere_at_half_size() {
         radius: 50.0,
         ..CIRCLE
     };
+    export_if_asked("aluminium_sphere_r50", &case);
     check("Mitsuba aluminium, sphere r 50", &case, 0.1);
 }
 
