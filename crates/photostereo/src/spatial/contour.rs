@@ -6,9 +6,11 @@
 //! Pixels on the image border are not contour pixels (the object may continue).
 //!
 //! The prior is anisotropic. Along the contour's tangent t the normal's component is 0
-//! whatever the surface's curvature, so it is held tightly (σ given). The tilt along m is
-//! not: a pixel centre d px inside the silhouette of a surface with radius of curvature R
-//! (across the contour) has |(n_x, n_y)| ≈ 1 − d/R. With d spread over (0, 1) (mean ½)
+//! whatever the surface's curvature; its σ is given (`Options::contour_sigma`, 0.03 by
+//! default: the direction m of the smoothed mask is itself a few degrees off on a
+//! disc). The tilt along m depends on the curvature: a pixel centre d px inside the
+//! silhouette of a surface with radius of curvature R (across the contour) has
+//! |(n_x, n_y)| ≈ 1 − d/R. With d spread over (0, 1) (mean ½)
 //! that is 0.995 for R = 100 px, 0.99 for 50 px and 0.98 for 25 px, so the tilt is held
 //! at [`RIM_TILT`] = 0.995 with its own σ [`TILT_SIGMA`] = 0.01.
 //!
