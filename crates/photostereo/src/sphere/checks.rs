@@ -18,6 +18,7 @@
 use super::{check_circle, detect, Circle, DetectOptions, Detection};
 use crate::image::{GrayImage, ImageStack, Mask};
 use crate::stats::median;
+use std::ops::Range;
 
 /// A given circle's offset (centre or radius, pixels) from the one found in the images
 /// that counts as a misfit when it also exceeds 3 σ of the found circle.
@@ -237,16 +238,15 @@ impl ShapeCheck {
 /// smoothed by a Gaussian of 1.5 px where noise hides the rim pixel by pixel but not in
 /// the medians of its ring and of the background), compare with the radius.
 pub fn check_shape(det: &Detection, mask: Option<&Mask>) -> ShapeCheck {
-    let smoothed = match mask {
-        Some(_) => None,
-        None => smoothed_if_noisy(&det.max_image, &det.circle),
+    // the lit region's image, circle and level (without a mask only)
+    let lit = mask
+        .is_none()
+        .then(|| lit_region(&det.max_image, &det.circle));
+    let (img, c, level) = match &lit {
+        Some((Some((window, c)), level)) => (window, *c, *level),
+        Some((None, level)) => (&det.max_image, det.circle, *level),
+        None => (&det.max_image, det.circle, 0.0),
     };
-    let (img, c) = match &smoothed {
-        Some((window, c)) => (window, *c),
-        None => (&det.max_image, det.circle),
-    };
-    // the level matters only without a mask
-    let level = lit_level(img, &c);
     let inside = |x: f64, y: f64| -> bool {
         if x < 0.0 || y < 0.0 || x >= img.width as f64 || y >= img.height as f64 {
             return false;
@@ -290,14 +290,32 @@ pub fn check_shape(det: &Detection, mask: Option<&Mask>) -> ShapeCheck {
 /// above it). Why: a rough metal sphere's rim is dark under every light (on Mitsuba's
 /// aluminium in 8 bits, 4 grey levels against 110 inside: a fifth of the median ends the
 /// lit region at 0.75 radii, and the sphere was called "not a sphere"), yet still
-/// brighter than the background behind it.
-fn lit_level(img: &GrayImage, c: &Circle) -> f32 {
+/// brighter than the background behind it. `contrast` is `img`'s [`rim_contrast`].
+fn lit_level(img: &GrayImage, c: &Circle, contrast: Option<Contrast>) -> f32 {
     let interior = 0.2 * median(&mut ring_values(img, c, 0.0, 0.8)).unwrap_or(0.0);
-    match rim_contrast(img, c) {
+    match contrast {
         Some((b, rim, spread)) if rim - b > RIM_CLEAR_MADS * spread => {
             interior.min(0.5 * (b + rim))
         }
         _ => interior,
+    }
+}
+
+/// The image the lit region is traced in: the maximum image's window smoothed by
+/// [`smoothed_if_noisy`] with the circle in its frame (`None`: the maximum image itself
+/// and its circle), and the lit level there ([`lit_level`]).
+type LitRegion = (Option<(GrayImage, Circle)>, f32);
+
+/// The [`LitRegion`] of the maximum image `img` and circle `c`: each image's
+/// [`rim_contrast`] is measured once, for both the choice and the level.
+fn lit_region(img: &GrayImage, c: &Circle) -> LitRegion {
+    let contrast = rim_contrast(img, c);
+    match smoothed_if_noisy(img, c, contrast) {
+        Some((window, shifted, smoothed)) => {
+            let level = lit_level(&window, &shifted, Some(smoothed));
+            (Some((window, shifted)), level)
+        }
+        None => (None, lit_level(img, c, contrast)),
     }
 }
 
@@ -308,9 +326,13 @@ const RIM_CLEAR_MADS: f32 = 6.0;
 /// Standard deviation (pixels) of the smoothing of [`smoothed_if_noisy`].
 const NOISY_SMOOTH_PX: f64 = 1.5;
 
+/// Medians of the background ring and of the rim ring of [`rim_contrast`], and the
+/// background's median absolute deviation.
+type Contrast = (f32, f32, f32);
+
 /// Medians of the background ring (1.05–1.2 radii) and of the rim ring (0.9–0.98 radii)
 /// of the maximum image, and the background's median absolute deviation.
-fn rim_contrast(img: &GrayImage, c: &Circle) -> Option<(f32, f32, f32)> {
+fn rim_contrast(img: &GrayImage, c: &Circle) -> Option<Contrast> {
     let mut back = ring_values(img, c, 1.05, 1.2);
     let b = median(&mut back)?;
     let rim = median(&mut ring_values(img, c, 0.9, 0.98))?;
@@ -319,54 +341,51 @@ fn rim_contrast(img: &GrayImage, c: &Circle) -> Option<(f32, f32, f32)> {
 }
 
 /// The window of the maximum image around the circle (1.6 radii) smoothed by a Gaussian
-/// of [`NOISY_SMOOTH_PX`], and the circle in its frame, where noise hides the rim: it
-/// stands above the background in the medians but less than [`RIM_CLEAR_MADS`] of the
-/// background's spread above it pixel by pixel, and clear of it after the smoothing.
+/// of [`NOISY_SMOOTH_PX`], the circle in its frame and the window's [`rim_contrast`],
+/// where noise hides the rim: by `contrast` (the image's) it stands above the background
+/// in the medians but less than [`RIM_CLEAR_MADS`] of the background's spread above it
+/// pixel by pixel, and clear of it after the smoothing.
 /// Why: the maximum of noisy images lifts the background towards a dark rim. Measured on
 /// Mitsuba's aluminium with 1% Gaussian noise (16 lights): rim 0.025 against background
 /// 0.017 ± 0.0035 (2.3 deviations), so the lit region ended at 0.77 radii and the sphere
 /// was "not a sphere" in 100% of the directions; smoothed, 0% (median gap 0.28 px).
-fn smoothed_if_noisy(img: &GrayImage, c: &Circle) -> Option<(GrayImage, Circle)> {
-    let (b, rim, spread) = rim_contrast(img, c)?;
+fn smoothed_if_noisy(
+    img: &GrayImage,
+    c: &Circle,
+    contrast: Option<Contrast>,
+) -> Option<(GrayImage, Circle, Contrast)> {
+    let (b, rim, spread) = contrast?;
     if rim <= b || rim - b > RIM_CLEAR_MADS * spread {
         return None;
     }
     let reach = 1.6 * c.radius;
-    let span = |centre: f64, n: usize| {
-        let first = ((centre - reach).floor().max(0.0) as usize).min(n);
-        (
-            first,
-            ((centre + reach).ceil().max(0.0) as usize).clamp(first, n),
-        )
-    };
-    let ((c0, c1), (r0, r1)) = (span(c.cx, img.width), span(c.cy, img.height));
-    let (w, h) = (c1 - c0, r1 - r0);
-    let window: Vec<f32> = (r0..r1)
-        .flat_map(|r| (c0..c1).map(move |col| (r, col)))
-        .map(|(r, col)| *img.get(r, col))
-        .collect();
-    let smooth = super::contrast::gaussian_blur(&window, w, h, NOISY_SMOOTH_PX);
+    let (cols, rows) = (span(c.cx, reach, img.width), span(c.cy, reach, img.height));
+    let (w, h) = (cols.len(), rows.len());
+    let (values, _) = super::detect::window_values(img, None, (cols.start, rows.start, w, h));
+    let smooth = super::contrast::gaussian_blur(&values, w, h, NOISY_SMOOTH_PX);
     let window = GrayImage::from_vec(w, h, smooth).ok()?;
     let shifted = Circle {
-        cx: c.cx - c0 as f64,
-        cy: c.cy - r0 as f64,
+        cx: c.cx - cols.start as f64,
+        cy: c.cy - rows.start as f64,
         radius: c.radius,
     };
     let (b, rim, spread) = rim_contrast(&window, &shifted)?;
-    (rim - b > RIM_CLEAR_MADS * spread).then_some((window, shifted))
+    (rim - b > RIM_CLEAR_MADS * spread).then_some((window, shifted, (b, rim, spread)))
+}
+
+/// The pixel indices within `reach` of `centre` along an axis of `n` pixels.
+fn span(centre: f64, reach: f64, n: usize) -> Range<usize> {
+    let first = ((centre - reach).floor().max(0.0) as usize).min(n);
+    first..((centre + reach).ceil().max(0.0) as usize).clamp(first, n)
 }
 
 /// The maximum image's values at `lo`–`hi` radii from the circle's centre, row by row
 /// (only the rows and columns of the ring's bounding box are visited).
 fn ring_values(img: &GrayImage, c: &Circle, lo: f64, hi: f64) -> Vec<f32> {
     let reach = hi * c.radius + 1.0;
-    let span = |centre: f64, n: usize| {
-        let first = (centre - reach).floor().max(0.0) as usize;
-        first.min(n)..((centre + reach).ceil().max(0.0) as usize).min(n)
-    };
     let mut v: Vec<f32> = Vec::new();
-    for r in span(c.cy, img.height) {
-        for col in span(c.cx, img.width) {
+    for r in span(c.cy, reach, img.height) {
+        for col in span(c.cx, reach, img.width) {
             let (x, y) = (col as f64 + 0.5 - c.cx, r as f64 + 0.5 - c.cy);
             let rho = x.hypot(y) / c.radius;
             if (lo..hi).contains(&rho) {
@@ -485,16 +504,19 @@ mod tests {
 
     #[test]
     fn a_rim_hidden_by_noise_is_traced_in_the_smoothed_image() {
+        let contrast = |img: &GrayImage, c: &Circle| rim_contrast(img, c);
         let (clean, c) = dim_rimmed_disc(0.0);
-        assert!(smoothed_if_noisy(&clean, &c).is_none());
-        let level = lit_level(&clean, &c);
+        assert!(smoothed_if_noisy(&clean, &c, contrast(&clean, &c)).is_none());
+        let level = lit_level(&clean, &c, contrast(&clean, &c));
         assert!(level > 0.017 && level < 0.025, "{level}");
 
         let (noisy, c) = dim_rimmed_disc(0.005);
         // pixel by pixel the rim is lost: the lit level stays a fifth of the cap's
-        assert!((lit_level(&noisy, &c) - 0.07).abs() < 0.005);
-        let (window, inside) = smoothed_if_noisy(&noisy, &c).expect("smoothed");
-        let level = lit_level(&window, &inside);
+        assert!((lit_level(&noisy, &c, contrast(&noisy, &c)) - 0.07).abs() < 0.005);
+        let (window, inside, smoothed) =
+            smoothed_if_noisy(&noisy, &c, contrast(&noisy, &c)).expect("smoothed");
+        assert_eq!(Some(smoothed), contrast(&window, &inside));
+        let level = lit_level(&window, &inside, Some(smoothed));
         assert!(level > 0.018 && level < 0.024, "{level}");
         // the window is the circle's neighbourhood, the circle moved into its frame
         assert_eq!((window.width, window.height), (160, 160));
@@ -502,7 +524,7 @@ mod tests {
 
         // noise that drowns the rim even smoothed: no smoothing, and the cap's level
         let (drowned, c) = dim_rimmed_disc(0.05);
-        assert!(smoothed_if_noisy(&drowned, &c).is_none());
+        assert!(smoothed_if_noisy(&drowned, &c, contrast(&drowned, &c)).is_none());
     }
 
     #[test]

@@ -528,7 +528,7 @@ impl Crop {
 
 /// The maximum image's values in the window `win` (x0, y0, width, height), row by row,
 /// and whether each is searched (finite and inside `mask`).
-fn window_values(
+pub(super) fn window_values(
     max_image: &GrayImage,
     mask: Option<&Mask>,
     (x0, y0, width, height): (usize, usize, usize, usize),
