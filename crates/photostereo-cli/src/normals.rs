@@ -187,6 +187,16 @@ fn lookup_normals(
             "{} pixels: {} with cast-shadowed lights dropped, {} with confidence < 0.5, mean residual {:.5}",
             s.pixels, s.shadowed_pixels, s.low_confidence_pixels, s.mean_residual
         );
+        if let Some(c) = s.outline_check {
+            println!(
+                "mask outline: coverage correction {} (on the sphere's own outline, {} px: {:.2}° \
+                 plain, {:.2}° corrected)",
+                if c.helps() { "applied" } else { "not applied" },
+                c.pixels,
+                c.plain_deg,
+                c.corrected_deg
+            );
+        }
     }
     let mut out = normals::spatial_stage(stack, mask, &input, &normals_options(args), out)
         .context("spatial stage after the lookup")?;

@@ -131,6 +131,42 @@ fn table_with_64_bytes_flipped_in_its_middle_is_refused() {
 }
 
 #[test]
+fn table_outline_sample_round_trips_and_older_files_read_without_it() {
+    let table = small_table();
+    let sample = table
+        .outline
+        .clone()
+        .expect("a built table keeps its outline");
+    assert_eq!(sample.tuples.len(), table.k * sample.normals.len());
+    assert_eq!(
+        Table::from_bytes(&table.to_bytes()).unwrap().outline,
+        Some(sample)
+    );
+    // a file written before the outline was kept: no `outline` in its header
+    let older = Table {
+        outline: None,
+        ..table.clone()
+    };
+    assert_eq!(Table::from_bytes(&older.to_bytes()).unwrap().outline, None);
+    // an outline whose tuples do not hold K samples per pixel is refused by name
+    let mut bad = table.clone();
+    if let Some(o) = bad.outline.as_mut() {
+        o.tuples.pop();
+    }
+    let e = Table::from_bytes(&bad.to_bytes()).unwrap_err().to_string();
+    assert!(e.contains("outline sample"), "{e}");
+    let mut bad = table;
+    if let Some(o) = bad.outline.as_mut() {
+        o.normals[0][2] = f32::NAN;
+    }
+    let e = Table::from_bytes(&bad.to_bytes()).unwrap_err().to_string();
+    assert!(
+        e.contains("outline sample") || e.contains("bad header"),
+        "{e}"
+    );
+}
+
+#[test]
 fn table_versions_old_and_future_are_refused_by_name() {
     let bytes = small_table().to_bytes();
     let content = &bytes[format::FRAME_LEN..];

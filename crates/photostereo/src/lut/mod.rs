@@ -133,11 +133,11 @@ mod search;
 pub mod table;
 
 pub use options::{Method, Options};
-pub use output::{Output, Stats};
+pub use output::{OutlineCheck, Output, Stats};
 pub use search::index;
 pub use table::denoise::{self, Denoise};
 pub use table::format;
-pub use table::{BuildOptions, Entries, Table, Window};
+pub use table::{BuildOptions, Entries, OutlineSample, Table, Window};
 
 use crate::error::{Error, Result};
 use crate::image::{ImageStack, Mask};
@@ -236,8 +236,11 @@ pub struct Lookup<'t> {
     opts: Options,
     prep: search::Prep,
     /// The brightness-free match of the mask's outline ([`Options::outline_coverage`]):
-    /// its options (`normalize` on) and prepared search.
+    /// its options (`normalize` on) and prepared search; `None` also where the check on
+    /// the sphere's own outline found that it does not help ([`Lookup::outline_check`]).
     outline: Option<(Options, search::Prep)>,
+    /// That check, where it ran.
+    outline_check: Option<OutlineCheck>,
 }
 
 impl<'t> Lookup<'t> {
@@ -282,13 +285,65 @@ impl<'t> Lookup<'t> {
             let p = search::Prep::new(&Model::new(searched, true), &o);
             (o, p)
         });
-        Lookup {
+        let mut lookup = Lookup {
             given: tables,
             derived,
             black,
             opts: opts.clone(),
             prep,
             outline,
+            outline_check: None,
+        };
+        lookup.outline_check = lookup.check_outline();
+        if lookup.outline_check.is_some_and(|c| !c.helps()) {
+            lookup.outline = None;
+        }
+        lookup
+    }
+
+    /// The check of the outline's coverage correction on the sphere's own outline
+    /// ([`OutlineCheck`]); `None` where the correction does not apply
+    /// ([`Options::outline_coverage`]) or the table has no outline sample (read from a
+    /// file written before it was kept: the correction is then applied as it was).
+    pub fn outline_check(&self) -> Option<OutlineCheck> {
+        self.outline_check
+    }
+
+    /// [`Lookup::outline_check`], measured: each pixel of the sphere's outline sample
+    /// solved as a target's outline pixel is in [`Lookup::run`], plain and corrected.
+    fn check_outline(&self) -> Option<OutlineCheck> {
+        let (o, o_prep) = self.outline.as_ref()?;
+        let sample = self.given.first()?.outline.as_ref()?;
+        let solver = Solver::with(self.model(), &self.opts, &self.prep);
+        let searched = self.derived.as_deref().unwrap_or(&self.given);
+        let os = Solver::with(Model::new(searched, true), o, o_prep);
+        let k = self.given[0].k;
+        let (mut wk, mut wo) = (Work::new(k), Work::new(k));
+        let (mut plain, mut corrected) = (0.0, 0.0);
+        for (t, n) in sample.tuples.chunks_exact(k).zip(&sample.normals) {
+            self.load(t, &mut wk);
+            wk.warm = None;
+            let px = solver.pixel(&mut wk);
+            plain += crate::eval::angle_deg(&px.normal, n);
+            let fixed = coverage_refit(&solver, &os, (&mut wk, &mut wo), px);
+            corrected += crate::eval::angle_deg(&fixed.normal, n);
+        }
+        let pixels = sample.normals.len();
+        Some(OutlineCheck {
+            pixels,
+            plain_deg: plain / pixels.max(1) as f64,
+            corrected_deg: corrected / pixels.max(1) as f64,
+        })
+    }
+
+    /// A target's tuple `t` into `wk.t`, as matched: non-finite samples as 0, the black
+    /// level taken off where a brightness is fitted.
+    fn load(&self, t: &[f32], wk: &mut Work) {
+        for (dst, &v) in wk.t.iter_mut().zip(t) {
+            *dst = if v.is_finite() { v } else { 0.0 };
+        }
+        if let Some(black) = &self.black {
+            wk.t.iter_mut().zip(black).for_each(|(v, f)| *v -= f);
         }
     }
 
@@ -346,12 +401,7 @@ impl<'t> Lookup<'t> {
                         wk.warm = None;
                         continue;
                     }
-                    for (dst, &v) in wk.t.iter_mut().zip(stack.pixel(r, c)) {
-                        *dst = if v.is_finite() { v } else { 0.0 };
-                    }
-                    if let Some(black) = &self.black {
-                        wk.t.iter_mut().zip(black).for_each(|(v, f)| *v -= f);
-                    }
+                    self.load(stack.pixel(r, c), &mut wk);
                     let mut px = solver.pixel(&mut wk);
                     if let (Some(os), Some(wo)) = (&outline, wo.as_mut()) {
                         if outline::on_outline(mask, r, c) {
@@ -365,6 +415,10 @@ impl<'t> Lookup<'t> {
             })
             .reduce(Stats::default, output::add_stats);
         progress.finish();
+        let stats = Stats {
+            outline_check: self.outline_check,
+            ..stats
+        };
         planes.into_output(stats)
     }
 }

@@ -61,7 +61,10 @@ pub struct Options {
     /// first and correct its tuple for the share of its footprint that sees the object
     /// (`outline.rs`: silhouette pixels are area averages partly over the background).
     /// Applies to one table, [`Method::Refined`], without `normalize` or the split (those
-    /// fit a brightness at every pixel already). Default true.
+    /// fit a brightness at every pixel already), and only where the same correction
+    /// brings the calibration sphere's own outline closer to its known normals
+    /// ([`super::Lookup::outline_check`]; tables read from files written before the
+    /// sphere's outline was kept are corrected unchecked). Default true.
     pub outline_coverage: bool,
 }
 

@@ -14,7 +14,10 @@
 //!               circle {cx, cy, radius} (pixels, pixel (r, c) centre at (c+.5, r+.5)),
 //!               material, rim, smooth (blur applied, px), rim_blur (the images'
 //!               blur measured on the rim, px; optional),
-//!               window {col0, row0, width, height}, sample_format
+//!               window {col0, row0, width, height}, sample_format,
+//!               outline {tuples, normals} (the sphere's own outline as photographed,
+//!               `super::OutlineSample`; optional, absent in files written before it
+//!               was kept, and ignored by the readers of those days)
 //! then          width × height × k samples, f32 little-endian, pixel-major
 //!               (the sphere images on the window around the circle)
 //! ```
@@ -28,7 +31,7 @@
 //! The entries (tuples, normals, pixels) are derived from the window on loading, so a
 //! file cannot hold entries that disagree with its images.
 
-use super::{Table, Window};
+use super::{OutlineSample, Table, Window};
 use crate::error::{Error, Result};
 use crate::image::ImageStack;
 use crate::sphere::Circle;
@@ -56,6 +59,15 @@ struct Header {
     rim_blur: Option<f64>,
     window: WindowJson,
     sample_format: String,
+    /// Absent in files written before it was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    outline: Option<OutlineJson>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct OutlineJson {
+    tuples: Vec<f32>,
+    normals: Vec<[f32; 3]>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -167,6 +179,10 @@ pub fn encode_content(table: &Table) -> Vec<u8> {
             height: ws.height,
         },
         sample_format: "f32le".into(),
+        outline: table.outline.as_ref().map(|o| OutlineJson {
+            tuples: o.tuples.clone(),
+            normals: o.normals.clone(),
+        }),
     };
     let json = serde_json::to_vec(&header).unwrap_or_default();
     let mut out = Vec::with_capacity(4 + json.len() + ws.data.len() * 4);
@@ -243,8 +259,30 @@ pub fn decode_content(bytes: &[u8]) -> Result<Table> {
         row0: h.window.row0,
         stack,
     };
+    let outline = h.outline.map(|o| outline_sample(o, h.k)).transpose()?;
     let mut table = Table::from_parts(h.names, circle, h.material, h.rim, window)?;
     table.smooth = h.smooth;
     table.rim_blur = h.rim_blur.filter(|b| b.is_finite() && *b >= 0.0);
+    table.outline = outline;
     Ok(table)
+}
+
+/// The header's outline sample, checked: K samples per normal, all finite, at most
+/// [`super::MAX_OUTLINE_SAMPLE`] pixels.
+fn outline_sample(o: OutlineJson, k: usize) -> Result<OutlineSample> {
+    let n = o.normals.len();
+    if n > super::MAX_OUTLINE_SAMPLE || o.tuples.len() != n * k {
+        return Err(bad(format!(
+            "outline sample of {} values for {n} pixels under {k} lights",
+            o.tuples.len()
+        )));
+    }
+    let values = o.tuples.iter().chain(o.normals.iter().flatten());
+    if values.into_iter().any(|v| !v.is_finite()) {
+        return Err(bad("an outline sample is not a finite number"));
+    }
+    Ok(OutlineSample {
+        tuples: o.tuples,
+        normals: o.normals,
+    })
 }

@@ -14,9 +14,11 @@ use crate::sphere::Circle;
 
 pub mod denoise;
 pub mod format;
+mod outline_sample;
 mod window;
 
 use denoise::Denoise;
+pub use outline_sample::{OutlineSample, MAX_OUTLINE_SAMPLE};
 use window::{auto_smooth, blur, pad_window};
 pub use window::{estimate_noise, Window};
 
@@ -113,6 +115,9 @@ pub struct Table {
     pub window: Window,
     /// Discrete entries (tuples, normals, pixels).
     pub entries: Entries,
+    /// The sphere's own outline as photographed ([`OutlineSample`]); `None` when the
+    /// table was read from a file written before it was kept.
+    pub outline: Option<OutlineSample>,
 }
 
 /// Smallest number of lights a table accepts.
@@ -186,6 +191,7 @@ impl Table {
         )?;
         table.smooth = smooth;
         table.rim_blur = crate::sphere::rim_blur(stack, circle);
+        table.outline = OutlineSample::of(stack, circle);
         Ok(table)
     }
 
@@ -250,6 +256,7 @@ impl Table {
             rim_blur: None,
             window,
             entries,
+            outline: None,
         })
     }
 
