@@ -188,14 +188,7 @@ fn lookup_normals(
             s.pixels, s.shadowed_pixels, s.low_confidence_pixels, s.mean_residual
         );
         if let Some(c) = s.outline_check {
-            println!(
-                "mask outline: coverage correction {} (on the sphere's own outline, {} px: {:.2}° \
-                 plain, {:.2}° corrected)",
-                if c.helps() { "applied" } else { "not applied" },
-                c.pixels,
-                c.plain_deg,
-                c.corrected_deg
-            );
+            println!("mask outline: coverage correction {}", c.describe());
         }
     }
     let mut out = normals::spatial_stage(stack, mask, &input, &normals_options(args), out)

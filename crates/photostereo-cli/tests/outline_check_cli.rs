@@ -1,8 +1,9 @@
 //! The mask outline's coverage correction is checked on the calibration sphere's own
 //! outline before it is applied (`lut::Lookup::outline_check`), and `normals` says what
 //! it decided: applied for the Mitsuba renders' area-averaged silhouettes, not applied
-//! for DiLiGenT's real ball, whose rim a lens blurs; a table written before the sphere's
-//! outline was kept says nothing and is corrected as before. Skipped when `../shared`
+//! for DiLiGenT's real ball, whose rim a lens blurs (`run` puts it in its figures); a
+//! table written before the sphere's outline was kept says nothing and is corrected as
+//! before. Skipped when `../shared`
 //! is absent.
 
 use std::path::Path;
@@ -57,6 +58,26 @@ fn normals_says_whether_the_outline_is_corrected_and_why() {
     assert!(
         line.contains("correction not applied") && line.contains("399 px"),
         "{line}"
+    );
+
+    // `run` gives the same decision as a row of its figures (run.json and the report)
+    let out = dir.join("run");
+    photostereo(&[
+        "run",
+        "-q",
+        "--sphere",
+        s(&sphere),
+        s(&target),
+        "-o",
+        s(&out),
+    ]);
+    let text = std::fs::read_to_string(out.join("run.json")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let row = json["figures"]["mask outline coverage correction"].as_str();
+    let row = row.unwrap_or_default();
+    assert!(
+        row.starts_with("applied (on the sphere's own outline, 282 px"),
+        "{text}"
     );
 
     // the same table as written before the outline was kept: no check, no line

@@ -66,6 +66,22 @@ impl OutlineCheck {
     pub fn helps(&self) -> bool {
         self.corrected_deg < self.plain_deg
     }
+
+    /// The decision and its figures in words, as `normals` and `run`'s figures say them:
+    /// "applied (on the sphere's own outline, 282 px: 2.42° plain, 0.05° corrected)".
+    pub fn describe(&self) -> String {
+        format!(
+            "{} (on the sphere's own outline, {} px: {:.2}° plain, {:.2}° corrected)",
+            if self.helps() {
+                "applied"
+            } else {
+                "not applied"
+            },
+            self.pixels,
+            self.plain_deg,
+            self.corrected_deg
+        )
+    }
 }
 
 /// Result at one pixel.

@@ -360,7 +360,11 @@ fn lookup_pass(
         confidence: Some(confidence),
         depth: None,
         spatial: None,
-        rows: Vec::new(),
+        rows: lookup
+            .outline_check()
+            .map(stages::outline_row)
+            .into_iter()
+            .collect(),
     })
 }
 

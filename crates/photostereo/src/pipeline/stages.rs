@@ -177,14 +177,21 @@ fn spatial_of(
         normals::spatial_stage(stack, mask, input, &n_opts, out)
     })?;
     let spatial = spatial_stage::info_of(&mut out);
+    let outline = out.lookup.as_ref().and_then(|s| s.outline_check);
     Ok(Estimate {
         normals: out.normals,
         albedo: out.albedo,
         confidence: out.confidence,
         depth: None,
         spatial,
-        rows: Vec::new(),
+        rows: outline.map(outline_row).into_iter().collect(),
     })
+}
+
+/// The figure row of the lookup's check of the outline correction on the sphere's own
+/// outline ([`lut::Lookup::outline_check`]).
+pub(super) fn outline_row(check: lut::OutlineCheck) -> Figure {
+    Figure::new("mask outline coverage correction", check.describe())
 }
 
 /// Depth from the normals; masked least squares and BiNI weight each pixel by its
