@@ -312,11 +312,9 @@ impl<'t> Lookup<'t> {
     /// [`Lookup::outline_check`], measured: each pixel of the sphere's outline sample
     /// solved as a target's outline pixel is in [`Lookup::run`], plain and corrected.
     fn check_outline(&self) -> Option<OutlineCheck> {
-        let (o, o_prep) = self.outline.as_ref()?;
         let sample = self.given.first()?.outline.as_ref()?;
-        let solver = Solver::with(self.model(), &self.opts, &self.prep);
-        let searched = self.derived.as_deref().unwrap_or(&self.given);
-        let os = Solver::with(Model::new(searched, true), o, o_prep);
+        let (solver, os) = self.solvers();
+        let os = os?;
         let k = self.given[0].k;
         let (mut wk, mut wo) = (Work::new(k), Work::new(k));
         let (mut plain, mut corrected) = (0.0, 0.0);
@@ -334,6 +332,18 @@ impl<'t> Lookup<'t> {
             plain_deg: plain / pixels.max(1) as f64,
             corrected_deg: corrected / pixels.max(1) as f64,
         })
+    }
+
+    /// The pixel solver and, where the outline's correction applies, the outline's
+    /// brightness-free solver: what [`Lookup::run`] and [`Lookup::check_outline`] solve
+    /// with.
+    fn solvers(&self) -> (Solver<'_>, Option<Solver<'_>>) {
+        let solver = Solver::with(self.model(), &self.opts, &self.prep);
+        let outline = self.outline.as_ref().map(|(o, prep)| {
+            let searched = self.derived.as_deref().unwrap_or(&self.given);
+            Solver::with(Model::new(searched, true), o, prep)
+        });
+        (solver, outline)
     }
 
     /// A target's tuple `t` into `wk.t`, as matched: non-finite samples as 0, the black
@@ -379,11 +389,7 @@ impl<'t> Lookup<'t> {
 
     /// [`Lookup::solve`] on a checked target.
     fn run(&self, stack: &ImageStack, mask: &Mask, progress: &dyn Progress) -> Output {
-        let solver = Solver::with(self.model(), &self.opts, &self.prep);
-        let outline = self.outline.as_ref().map(|(o, prep)| {
-            let searched = self.derived.as_deref().unwrap_or(&self.given);
-            Solver::with(Model::new(searched, true), o, prep)
-        });
+        let (solver, outline) = self.solvers();
         let n_tables = self.derived.as_ref().map_or(self.given.len(), Vec::len);
         let (w, h, k) = (stack.width, stack.height, stack.k);
         let mut planes = Planes::new(w, h, n_tables, self.opts.normalize);

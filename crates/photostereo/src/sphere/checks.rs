@@ -504,18 +504,17 @@ mod tests {
 
     #[test]
     fn a_rim_hidden_by_noise_is_traced_in_the_smoothed_image() {
-        let contrast = |img: &GrayImage, c: &Circle| rim_contrast(img, c);
         let (clean, c) = dim_rimmed_disc(0.0);
-        assert!(smoothed_if_noisy(&clean, &c, contrast(&clean, &c)).is_none());
-        let level = lit_level(&clean, &c, contrast(&clean, &c));
+        assert!(smoothed_if_noisy(&clean, &c, rim_contrast(&clean, &c)).is_none());
+        let level = lit_level(&clean, &c, rim_contrast(&clean, &c));
         assert!(level > 0.017 && level < 0.025, "{level}");
 
         let (noisy, c) = dim_rimmed_disc(0.005);
         // pixel by pixel the rim is lost: the lit level stays a fifth of the cap's
-        assert!((lit_level(&noisy, &c, contrast(&noisy, &c)) - 0.07).abs() < 0.005);
+        assert!((lit_level(&noisy, &c, rim_contrast(&noisy, &c)) - 0.07).abs() < 0.005);
         let (window, inside, smoothed) =
-            smoothed_if_noisy(&noisy, &c, contrast(&noisy, &c)).expect("smoothed");
-        assert_eq!(Some(smoothed), contrast(&window, &inside));
+            smoothed_if_noisy(&noisy, &c, rim_contrast(&noisy, &c)).expect("smoothed");
+        assert_eq!(Some(smoothed), rim_contrast(&window, &inside));
         let level = lit_level(&window, &inside, Some(smoothed));
         assert!(level > 0.018 && level < 0.024, "{level}");
         // the window is the circle's neighbourhood, the circle moved into its frame
@@ -524,7 +523,7 @@ mod tests {
 
         // noise that drowns the rim even smoothed: no smoothing, and the cap's level
         let (drowned, c) = dim_rimmed_disc(0.05);
-        assert!(smoothed_if_noisy(&drowned, &c, contrast(&drowned, &c)).is_none());
+        assert!(smoothed_if_noisy(&drowned, &c, rim_contrast(&drowned, &c)).is_none());
     }
 
     #[test]

@@ -277,8 +277,8 @@ fn outline_sample(o: OutlineJson, k: usize) -> Result<OutlineSample> {
             o.tuples.len()
         )));
     }
-    let values = o.tuples.iter().chain(o.normals.iter().flatten());
-    if values.into_iter().any(|v| !v.is_finite()) {
+    let mut values = o.tuples.iter().chain(o.normals.iter().flatten());
+    if values.any(|v| !v.is_finite()) {
         return Err(bad("an outline sample is not a finite number"));
     }
     Ok(OutlineSample {

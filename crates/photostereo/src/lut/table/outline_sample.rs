@@ -48,13 +48,8 @@ impl OutlineSample {
                 let on_silhouette = inside(r, c)
                     && next.iter().all(|&(rr, cc)| in_image(rr, cc))
                     && next.iter().any(|&(rr, cc)| !inside(rr, cc));
-                let finite = || {
-                    stack
-                        .pixel(r as usize, c as usize)
-                        .iter()
-                        .all(|v| v.is_finite())
-                };
-                if on_silhouette && finite() {
+                let finite = |px: &[f32]| px.iter().all(|v| v.is_finite());
+                if on_silhouette && finite(stack.pixel(r as usize, c as usize)) {
                     pixels.push((r as usize, c as usize));
                 }
             }
